@@ -1,0 +1,149 @@
+"""Direct irradiance (W m^-2) from the analytic lights and the world, with shadow rays.
+
+Closed forms (unoccluded), each multiplied by the visible share found with stratified shadow rays:
+- point / spot: E = I cos(theta) / r^2 with I = P / (4 pi) (Blender's convention; spot x cone mask);
+- sun: E = S cos(theta);
+- area: E = pi L F(point -> light polygon), L = P / (4 pi A), F by Lambert's contour formula;
+- world: E = pi L_world x (share of cosine-weighted directions that escape the scene).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .formfactor import point_to_polygon, tangent_frames, visible_fraction
+from .raycast import RayCaster
+from .sampling import concentric_disk, cosine_hemisphere, stratified_square
+from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight
+
+DISK_POLYGON_SIDES = 64
+
+
+def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
+                      offset_m: float, samples_per_edge: int, seed: int) -> np.ndarray:
+    """(m, 3) irradiance at points with unit normals from every light of the scene and its world."""
+    irradiance = np.zeros((len(points), 3))
+    for index, light in enumerate(scene.lights):
+        sampler = _SAMPLERS[type(light)]
+        scalar = sampler(light, caster, points, normals, offset_m, samples_per_edge, seed + 7919 * index)
+        irradiance += scalar[:, None] * np.asarray(light.color, dtype=np.float64)
+    world = np.asarray(scene.world.radiance, dtype=np.float64)
+    if world.max() > 0:
+        escaped = _world_escape_share(caster, points, normals, offset_m, samples_per_edge, seed - 1)
+        irradiance += np.pi * escaped[:, None] * world
+    return irradiance
+
+
+def spot_mask(cos_to_axis: np.ndarray, spot_size_rad: float, spot_blend: float) -> np.ndarray:
+    """Cycles' spot cone (Blender 4.x): smoothstep(0, 1, (cos a - cos(size/2)) / ((1 - cos(size/2)) blend))."""
+    cos_half = np.cos(spot_size_rad / 2.0)
+    if spot_blend <= 0:
+        return (cos_to_axis > cos_half).astype(np.float64)
+    t = np.clip((cos_to_axis - cos_half) / ((1.0 - cos_half) * spot_blend), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def area_light_polygon(light: AreaLight) -> np.ndarray:
+    """(V, 3) world-space outline of an area light; disks and ellipses as area-preserving polygons."""
+    frame = _light_frame(light)
+    half_x = light.size_m / 2.0
+    half_y = (light.size_y_m if light.shape in ("RECTANGLE", "ELLIPSE") and light.size_y_m else light.size_m) / 2.0
+    if light.shape in ("SQUARE", "RECTANGLE"):
+        local = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=np.float64)
+    else:
+        angle = 2 * np.pi * np.arange(DISK_POLYGON_SIDES) / DISK_POLYGON_SIDES
+        inscribed_area = 0.5 * DISK_POLYGON_SIDES * np.sin(2 * np.pi / DISK_POLYGON_SIDES)
+        local = np.sqrt(np.pi / inscribed_area) * np.stack([np.cos(angle), np.sin(angle)], -1)
+    local = local * [half_x, half_y]
+    return np.asarray(light.position, dtype=np.float64) + local[:, :1] * frame[0] + local[:, 1:] * frame[1]
+
+
+def area_light_area_m2(light: AreaLight) -> float:
+    width = light.size_m
+    height = light.size_y_m if light.shape in ("RECTANGLE", "ELLIPSE") and light.size_y_m else light.size_m
+    return width * height * (np.pi / 4 if light.shape in ("DISK", "ELLIPSE") else 1.0)
+
+
+def _light_frame(light) -> np.ndarray:
+    """Rows: light X axis, Y axis, emission direction (all unit)."""
+    direction = np.asarray(light.direction, dtype=np.float64)
+    direction = direction / np.linalg.norm(direction)
+    frame = tangent_frames(direction[None])[0]
+    if getattr(light, "axis_x", None) is not None:
+        x = np.asarray(light.axis_x, dtype=np.float64)
+        x = x - direction * (x @ direction)
+        x /= np.linalg.norm(x)
+        frame = np.stack([x, np.cross(direction, x), direction])
+    return frame
+
+
+def _point_like(light, caster, points, normals, offset_m, samples_per_edge, seed):
+    """Point and spot lights; a radius spreads the shadow-ray targets over a disk facing each receiver."""
+    to_light = np.asarray(light.position, dtype=np.float64) - points
+    distance = np.linalg.norm(to_light, axis=1)
+    direction = to_light / np.maximum(distance, 1e-300)[:, None]
+    cosine = np.maximum(np.einsum("mk,mk->m", direction, normals), 0.0)
+    irradiance = light.power_w / (4 * np.pi) * cosine / np.maximum(distance, 1e-300) ** 2
+    if isinstance(light, SpotLight):
+        axis = np.asarray(light.direction, dtype=np.float64) / np.linalg.norm(light.direction)
+        irradiance *= spot_mask(-direction @ axis, light.spot_size_rad, light.spot_blend)
+    lit = np.flatnonzero(irradiance > 0)
+    if light.radius_m > 0:
+        disk = concentric_disk(stratified_square(len(lit), samples_per_edge, seed)) * light.radius_m
+        frame = tangent_frames(-direction[lit])
+        targets = light.position + np.einsum("msi,mik->msk", disk, frame[:, :2])
+    else:
+        targets = np.broadcast_to(np.asarray(light.position, dtype=np.float64), (len(lit), 1, 3))
+    irradiance[lit] *= visible_fraction(caster, points[lit], normals[lit], targets, -direction[lit], offset_m, 0.0)
+    return irradiance
+
+
+def _sun(light: SunLight, caster, points, normals, offset_m, samples_per_edge, seed):
+    """Sun: S cos(theta) times the share of a cone of the sun's angular diameter that is unoccluded."""
+    to_sun = -np.asarray(light.direction, dtype=np.float64) / np.linalg.norm(light.direction)
+    irradiance = light.strength_w_m2 * np.maximum(normals @ to_sun, 0.0)
+    lit = np.flatnonzero(irradiance > 0)
+    count = samples_per_edge if light.angle_rad > 0 else 1
+    disk = concentric_disk(stratified_square(len(lit), count, seed)) * np.tan(light.angle_rad / 2.0)
+    frame = tangent_frames(to_sun[None])[0]
+    directions = to_sun + disk @ frame[:2]
+    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+    origins = np.repeat(points[lit] + offset_m * normals[lit], directions.shape[1], axis=0)
+    blocked = caster.occluded(origins, directions.reshape(-1, 3), np.full(len(origins), np.inf))
+    irradiance[lit] *= 1.0 - blocked.reshape(len(lit), -1).mean(axis=1)
+    return irradiance
+
+
+def _area(light: AreaLight, caster, points, normals, offset_m, samples_per_edge, seed):
+    """Area light: pi L F(point -> polygon), lit only on the emitting side, times the visible share."""
+    polygon = area_light_polygon(light)
+    direction = _light_frame(light)[2]
+    radiance = light.power_w / (4 * np.pi * area_light_area_m2(light))
+    in_front = (points - np.asarray(light.position)) @ direction > 0
+    irradiance = np.zeros(len(points))
+    front = np.flatnonzero(in_front)
+    irradiance[front] = np.pi * radiance * point_to_polygon(
+        points[front], normals[front], np.broadcast_to(polygon, (len(front),) + polygon.shape).copy())
+    lit = np.flatnonzero(irradiance > 0)
+    unit = stratified_square(len(lit), samples_per_edge, seed)
+    if light.shape in ("DISK", "ELLIPSE"):
+        unit = 0.5 * (concentric_disk(unit) + 1.0)
+    frame = _light_frame(light)
+    width = light.size_m
+    height = light.size_y_m if light.shape in ("RECTANGLE", "ELLIPSE") and light.size_y_m else light.size_m
+    offsets = (unit - 0.5) * [width, height]
+    targets = np.asarray(light.position) + offsets[..., :1] * frame[0] + offsets[..., 1:] * frame[1]
+    light_normals = np.broadcast_to(direction, (len(lit), 3))
+    irradiance[lit] *= visible_fraction(caster, points[lit], normals[lit], targets, light_normals, offset_m, 0.0)
+    return irradiance
+
+
+def _world_escape_share(caster, points, normals, offset_m, samples_per_edge, seed):
+    """Share of cosine-weighted directions from each point that hit nothing (stratified, seeded)."""
+    local = cosine_hemisphere(stratified_square(len(points), samples_per_edge, seed))
+    directions = np.einsum("msi,mik->msk", local, tangent_frames(normals))
+    origins = np.repeat(points + offset_m * normals, directions.shape[1], axis=0)
+    blocked = caster.occluded(origins, directions.reshape(-1, 3), np.full(len(origins), np.inf))
+    return 1.0 - blocked.reshape(len(points), -1).mean(axis=1)
+
+
+_SAMPLERS = {PointLight: _point_like, SpotLight: _point_like, SunLight: _sun, AreaLight: _area}

@@ -1,0 +1,247 @@
+"""Scene model: world-space triangles, diffuse materials, analytic lights and a constant world.
+
+Units follow Blender / Cycles (see docs/units.md):
+- lengths in metres, everything scene-linear RGB;
+- a material's ``emitted_radiance`` is L in W m^-2 sr^-1 per channel; its exitance is pi L;
+- point and spot lights carry a power P in W with radiant intensity P / (4 pi) (Blender's convention);
+- a sun carries its strength S in W m^-2 (irradiance S cos(theta));
+- an area light carries a power P in W, spread as radiance P / (4 pi A) over its emitting side (Cycles);
+- the world is a constant background radiance.
+
+Validation happens once, on construction, and raises :class:`SceneError` naming the offending item.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+RGB = tuple[float, float, float]
+
+
+class SceneError(ValueError):
+    """Bad input to the radiosity core; the message names the object, material or light at fault."""
+
+
+@dataclass(frozen=True)
+class Material:
+    """Lambertian material. ``reflectance`` in [0, 1) per channel; ``emitted_radiance`` >= 0 (W m^-2 sr^-1)."""
+
+    name: str
+    reflectance: RGB = (0.8, 0.8, 0.8)
+    emitted_radiance: RGB = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class PointLight:
+    """Blender point light: ``power_w`` (W) per channel via ``color``; ``radius_m`` softens shadows."""
+
+    name: str
+    position: tuple[float, float, float]
+    power_w: float
+    color: RGB = (1.0, 1.0, 1.0)
+    radius_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class SpotLight:
+    """Blender spot light: a point light masked by a cone of full angle ``spot_size_rad`` around ``direction``.
+
+    ``spot_blend`` in [0, 1] softens the cone edge with Cycles' smoothstep (Blender 4.x, kernel/light/spot.h).
+    """
+
+    name: str
+    position: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    power_w: float
+    spot_size_rad: float
+    spot_blend: float = 0.15
+    color: RGB = (1.0, 1.0, 1.0)
+    radius_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class SunLight:
+    """Blender sun: ``strength_w_m2`` (irradiance on a facing surface); light travels along ``direction``.
+
+    ``angle_rad`` is the sun's angular diameter (soft shadows).
+    """
+
+    name: str
+    direction: tuple[float, float, float]
+    strength_w_m2: float
+    color: RGB = (1.0, 1.0, 1.0)
+    angle_rad: float = 0.0
+
+
+AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
+
+
+@dataclass(frozen=True)
+class AreaLight:
+    """Blender area light centred at ``position``; emits from one side, along ``direction`` (local -Z).
+
+    ``size_m`` is the X size (diameter for disks); ``size_y_m`` the Y size for RECTANGLE / ELLIPSE.
+    ``axis_x`` orients the light's local X axis in the plane.
+    """
+
+    name: str
+    position: tuple[float, float, float]
+    direction: tuple[float, float, float]
+    power_w: float
+    shape: str = "SQUARE"
+    size_m: float = 1.0
+    size_y_m: float | None = None
+    axis_x: tuple[float, float, float] | None = None
+    color: RGB = (1.0, 1.0, 1.0)
+
+
+Light = PointLight | SpotLight | SunLight | AreaLight
+
+
+@dataclass(frozen=True)
+class World:
+    """Constant background radiance (W m^-2 sr^-1): Blender's world colour x strength."""
+
+    radiance: RGB = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class Scene:
+    """Triangles in world space with one material each, plus lights and the world.
+
+    triangles:       (T, 3, 3) float64, vertex positions in metres.
+    material_index:  (T,) int, index into ``materials``.
+    object_index:    (T,) int, index into ``object_names`` (for messages and per-object outputs).
+    casts_only:      (T,) bool, True for "shadow only" geometry: it blocks light but is not solved.
+
+    Zero-area triangles are dropped on construction; ``dropped_triangles`` counts them and
+    ``triangle_source`` maps each kept triangle to its index in the input.
+    """
+
+    triangles: np.ndarray
+    material_index: np.ndarray
+    materials: list[Material]
+    lights: list = field(default_factory=list)
+    world: World = field(default_factory=World)
+    object_index: np.ndarray | None = None
+    object_names: list[str] | None = None
+    casts_only: np.ndarray | None = None
+    dropped_triangles: int = field(init=False, default=0)
+    triangle_source: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        self.triangles = np.asarray(self.triangles, dtype=np.float64).reshape(-1, 3, 3)
+        count = len(self.triangles)
+        self.material_index = np.asarray(self.material_index, dtype=np.int64).reshape(-1)
+        if self.object_index is None:
+            self.object_index = np.zeros(count, dtype=np.int64)
+        self.object_index = np.asarray(self.object_index, dtype=np.int64).reshape(-1)
+        if self.object_names is None:
+            self.object_names = [f"object {i}" for i in range(int(self.object_index.max(initial=-1)) + 1)]
+        if self.casts_only is None:
+            self.casts_only = np.zeros(count, dtype=bool)
+        self.casts_only = np.asarray(self.casts_only, dtype=bool).reshape(-1)
+        _validate(self)
+        keep = triangle_areas(self.triangles) > 0.0
+        self.dropped_triangles = int(count - keep.sum())
+        self.triangle_source = np.flatnonzero(keep)
+        self.triangles = self.triangles[keep]
+        self.material_index = self.material_index[keep]
+        self.object_index = self.object_index[keep]
+        self.casts_only = self.casts_only[keep]
+        if not (~self.casts_only).any():
+            raise SceneError("Nothing to bake: every triangle has zero area or is 'shadow only'.")
+
+    @property
+    def reflectance(self) -> np.ndarray:
+        """(M, 3) reflectance per material."""
+        return np.array([m.reflectance for m in self.materials], dtype=np.float64).reshape(-1, 3)
+
+    @property
+    def emitted_radiance(self) -> np.ndarray:
+        """(M, 3) emitted radiance per material, W m^-2 sr^-1."""
+        return np.array([m.emitted_radiance for m in self.materials], dtype=np.float64).reshape(-1, 3)
+
+    @property
+    def size_m(self) -> float:
+        """Diagonal of the scene's bounding box in metres (sets ray offsets)."""
+        points = self.triangles.reshape(-1, 3)
+        return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+
+
+def triangle_areas(triangles: np.ndarray) -> np.ndarray:
+    """Areas of (..., 3, 3) triangles, m^2."""
+    cross = np.cross(triangles[..., 1, :] - triangles[..., 0, :], triangles[..., 2, :] - triangles[..., 0, :])
+    return 0.5 * np.linalg.norm(cross, axis=-1)
+
+
+def _validate(scene: Scene) -> None:
+    count = len(scene.triangles)
+    if count == 0:
+        raise SceneError("The scene is empty: no triangles to bake.")
+    for name, array in (("material_index", scene.material_index), ("object_index", scene.object_index),
+                        ("casts_only", scene.casts_only)):
+        if len(array) != count:
+            raise SceneError(f"{name} has {len(array)} entries for {count} triangles.")
+    bad = ~np.isfinite(scene.triangles).all(axis=(1, 2))
+    if bad.any():
+        raise SceneError(f"Object '{_object_name(scene, int(np.flatnonzero(bad)[0]))}' has NaN or infinite "
+                         f"vertex coordinates ({int(bad.sum())} triangles).")
+    if scene.material_index.min() < 0 or scene.material_index.max() >= len(scene.materials):
+        raise SceneError(f"A triangle refers to material {int(scene.material_index.max())} but the scene has "
+                         f"{len(scene.materials)} materials.")
+    for material in scene.materials:
+        _check_material(material)
+    for light in scene.lights:
+        _check_light(light)
+    _check_rgb(scene.world.radiance, "World background", "radiance", upper=None)
+    has_emitter = any(max(scene.materials[m].emitted_radiance) > 0 for m in np.unique(scene.material_index))
+    has_light = any(_light_power(light) > 0 for light in scene.lights) or max(scene.world.radiance) > 0
+    if not (has_emitter or has_light):
+        raise SceneError("The scene has no light: add a lamp, an emissive material or a world background.")
+
+
+def _object_name(scene: Scene, triangle: int) -> str:
+    return scene.object_names[int(scene.object_index[triangle])]
+
+
+def _check_rgb(values, owner: str, quantity: str, upper: float | None) -> None:
+    values = np.asarray(values, dtype=np.float64)
+    if values.shape != (3,) or not np.isfinite(values).all():
+        raise SceneError(f"{owner}: {quantity} must be three finite numbers, got {tuple(values.ravel())}.")
+    if (values < 0).any():
+        raise SceneError(f"{owner}: {quantity} must not be negative, got {tuple(values)}.")
+    if upper is not None and (values >= upper).any():
+        raise SceneError(f"{owner}: {quantity} {tuple(values)} must be below {upper} "
+                         "(a reflectance of 1 or more never converges).")
+
+
+def _check_material(material: Material) -> None:
+    _check_rgb(material.reflectance, f"Material '{material.name}'", "reflectance", upper=1.0)
+    _check_rgb(material.emitted_radiance, f"Material '{material.name}'", "emitted radiance", upper=None)
+
+
+def _light_power(light) -> float:
+    return (light.strength_w_m2 if isinstance(light, SunLight) else light.power_w) * max(light.color)
+
+
+def _check_light(light) -> None:
+    owner = f"Light '{light.name}'"
+    _check_rgb(light.color, owner, "colour", upper=None)
+    power = light.strength_w_m2 if isinstance(light, SunLight) else light.power_w
+    if not np.isfinite(power) or power < 0:
+        raise SceneError(f"{owner}: power / strength must be a finite number >= 0, got {power}.")
+    vectors = [getattr(light, name) for name in ("position", "direction") if hasattr(light, name)]
+    if not all(np.isfinite(np.asarray(v, dtype=np.float64)).all() for v in vectors):
+        raise SceneError(f"{owner}: position and direction must be finite.")
+    if hasattr(light, "direction") and np.linalg.norm(light.direction) == 0:
+        raise SceneError(f"{owner}: direction must not be the zero vector.")
+    if isinstance(light, AreaLight):
+        if light.shape not in AREA_SHAPES:
+            raise SceneError(f"{owner}: shape must be one of {AREA_SHAPES}, got '{light.shape}'.")
+        sizes = [light.size_m] + ([light.size_y_m] if light.size_y_m is not None else [])
+        if any(not np.isfinite(s) or s <= 0 for s in sizes):
+            raise SceneError(f"{owner}: size must be positive, got {sizes}.")
+    if isinstance(light, SpotLight) and not (0 < light.spot_size_rad <= np.pi and 0 <= light.spot_blend <= 1):
+        raise SceneError(f"{owner}: spot size must be in (0, pi] and blend in [0, 1].")

@@ -1,0 +1,115 @@
+"""Form-factor rows for the solvers: F(e -> j) from every receiving element e to one shooting patch j.
+
+Two interchangeable methods (``FormFactorMethod``):
+- ``RayCastRows``: Lambert's exact unoccluded point-to-polygon factor at the element centroid times the visible
+  share of stratified points on the patch (Wallace et al. 1989 style visibility). The accurate default.
+- ``HemicubeRows``: a hemicube at the patch centroid (Cohen & Greenberg 1985) whose pixels are found by casting
+  one Embree ray each; F(j -> e) sums the delta form factors of the pixels that see element e, and reciprocity
+  gives F(e -> j) = F(j -> e) A_j / A_e (Cohen et al. 1988 shoot with it).
+
+By reciprocity, shooting patch j's radiosity B_j adds F(e -> j) B_j to the irradiance of every element e.
+"""
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from .formfactor import (hemicube_item_buffer, point_to_polygon, triangle_samples, triangle_unit_normals,
+                         visible_fraction)
+from .mesh import ElementMesh, Elements
+from .raycast import RayCaster
+from .scene import triangle_areas
+
+
+@dataclass
+class Patches:
+    """Shooting patches: (P, 3, 3) corners, (P, 3) centroids and unit normals, (P,) areas in m^2."""
+
+    corners: np.ndarray
+    centroid: np.ndarray
+    normal: np.ndarray
+    area_m2: np.ndarray
+
+    @classmethod
+    def of(cls, mesh: ElementMesh) -> "Patches":
+        corners = mesh.corners(np.arange(mesh.patch_count))
+        return cls(corners, corners.mean(axis=1), triangle_unit_normals(corners), triangle_areas(corners))
+
+
+PAIRS_PER_BLOCK = 1 << 17
+
+
+class RayCastRows:
+    """F(e -> j) = F_Lambert(centroid_e -> patch_j) x visible share of s x s stratified points on patch j."""
+
+    def __init__(self, caster: RayCaster, patches: Patches, samples_per_edge: int, offset_m: float):
+        self.caster, self.patches = caster, patches
+        self.samples_per_edge, self.offset_m = samples_per_edge, offset_m
+        self._samples = triangle_samples(patches.corners, samples_per_edge)
+
+    def block(self, patches: np.ndarray, receivers: Elements) -> np.ndarray:
+        """(n, b) form factors from every receiver to each of the b given patches."""
+        n, b = len(receivers.node), len(patches)
+        receiver, patch = np.repeat(np.arange(n), b), np.tile(patches, n)
+        centroid, normal = receivers.centroid[receiver], receivers.normal[receiver]
+        in_front = np.einsum("mk,mk->m", centroid - self.patches.centroid[patch], self.patches.normal[patch]) > 0
+        pair = np.flatnonzero(in_front & (receivers.patch[receiver] != patch))
+        factors = np.zeros(n * b)
+        factors[pair] = point_to_polygon(centroid[pair], normal[pair], self.patches.corners[patch[pair]])
+        seen = pair[factors[pair] > 0]
+        factors[seen] *= visible_fraction(self.caster, centroid[seen], normal[seen], self._samples[patch[seen]],
+                                          self.patches.normal[patch[seen]], self.offset_m, self.offset_m)
+        return factors.reshape(n, b)
+
+
+class HemicubeRows:
+    """F(e -> j) from one hemicube of ``resolution`` pixels across its top face, at patch j's centroid."""
+
+    def __init__(self, caster: RayCaster, patches: Patches, mesh: ElementMesh, resolution: int, offset_m: float,
+                 scene_to_mesh_triangle: np.ndarray):
+        self.caster, self.patches, self.mesh = caster, patches, mesh
+        self.resolution, self.offset_m = resolution, offset_m
+        self.scene_to_mesh_triangle = scene_to_mesh_triangle
+
+    def block(self, patches: np.ndarray, receivers: Elements) -> np.ndarray:
+        """(n, b) form factors; each patch's hemicube is turned by a golden-ratio angle against aliasing."""
+        hit, bary, weights = hemicube_item_buffer(
+            self.caster, self.patches.centroid[patches], self.patches.normal[patches], self.resolution,
+            self.offset_m, rotation=(0.618034 * patches % 1.0) * 2 * np.pi)
+        column = np.broadcast_to(np.arange(len(patches))[:, None], hit.shape).ravel()
+        weight = np.broadcast_to(weights, hit.shape).ravel()
+        hit, bary = hit.ravel(), bary.reshape(-1, 3)
+        mesh_triangle = np.where(hit >= 0, self.scene_to_mesh_triangle[np.maximum(hit, 0)], -1)
+        seen = np.flatnonzero(mesh_triangle >= 0)
+        node, _ = self.mesh.locate(mesh_triangle[seen], bary[seen])
+        position = np.full(len(self.mesh.node_bary), -1)
+        position[receivers.node] = np.arange(len(receivers.node))
+        receiver = position[node]
+        kept = receiver >= 0
+        n, b = len(receivers.node), len(patches)
+        patch_to_element = np.bincount(receiver[kept] * b + column[seen][kept], weights=weight[seen][kept],
+                                       minlength=n * b).reshape(n, b)
+        return patch_to_element * self.patches.area_m2[patches][None, :] / receivers.area_m2[:, None]
+
+
+FormFactorMethod = RayCastRows | HemicubeRows
+
+
+def row_blocks(method: FormFactorMethod, patches: np.ndarray, receivers: Elements, threads: int):
+    """Yield (patch indices, (n, b) form factors) for all given patches, blocks computed on a thread pool.
+
+    numpy and embreex release the GIL on large arrays, so blocks run side by side on the machine's cores.
+    """
+    size = max(1, PAIRS_PER_BLOCK // max(1, len(receivers.node)))
+    if isinstance(method, HemicubeRows):
+        size = max(1, PAIRS_PER_BLOCK // (3 * method.resolution ** 2))
+    blocks = [patches[start:start + size] for start in range(0, len(patches), size)]
+    with ThreadPoolExecutor(max(1, threads)) as pool:
+        pending = [pool.submit(method.block, block, receivers) for block in blocks[:threads]]
+        for index, block in enumerate(blocks):
+            factors = pending[index].result()
+            if index + threads < len(blocks):
+                pending.append(pool.submit(method.block, blocks[index + threads], receivers))
+            yield block, factors

@@ -1,0 +1,98 @@
+"""A solved scene and its outputs in Cycles' units.
+
+The baked quantity is "diffuse light without albedo": irradiance / pi (W m^-2 sr^-1, scene-linear), what Cycles'
+Diffuse bake with Direct + Indirect and no Color stores (docs/units.md). Per-element values are smoothed to the
+element corners by area-weighted nodal averaging (Cohen & Greenberg 1985) among elements that share a welded
+vertex and whose normals differ by less than ``SMOOTH_ANGLE_RAD``, so creases stay sharp.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .mesh import ElementMesh, weld_vertices
+from .scene import Scene
+from .solver import ConvergenceStep, RadiosityState
+
+SMOOTH_ANGLE_RAD = np.radians(45.0)
+
+
+@dataclass
+class Solution:
+    scene: Scene
+    mesh: ElementMesh
+    state: RadiosityState
+    weld_tolerance_m: float
+    seconds: dict[str, float] = field(default_factory=dict)
+    rays_cast: int = 0
+
+    @property
+    def history(self) -> list[ConvergenceStep]:
+        return self.state.history
+
+    @property
+    def residual(self) -> float:
+        return self.state.residual
+
+    @property
+    def element_count(self) -> int:
+        return len(self.state.elements.node)
+
+    def element_light(self) -> np.ndarray:
+        """(n, 3) irradiance / pi per element (Cycles' Diffuse Direct + Indirect, no Color)."""
+        return self.state.irradiance / np.pi
+
+    def element_radiosity(self) -> np.ndarray:
+        """(n, 3) radiosity B = E + rho H per element, W m^-2."""
+        return self.state.radiosity
+
+    def corner_light(self) -> np.ndarray:
+        """(n, 3, 3) light at each element's corners by area-weighted nodal averaging."""
+        elements = self.state.elements
+        _, corner_vertex = weld_vertices(self.mesh, elements.node, self.weld_tolerance_m)
+        corner_of = corner_vertex.ravel()
+        owner = np.repeat(np.arange(len(elements.node)), 3)
+        order = np.argsort(corner_of, kind="stable")
+        _, group_start, group_size = np.unique(corner_of[order], return_index=True, return_counts=True)
+        size_of = np.repeat(group_size, group_size)
+        start_of = np.repeat(group_start, group_size)
+        # Every (corner, element) pair around the same vertex: the corner's element and each partner element.
+        corner = np.repeat(order, size_of)
+        partner = owner[order[np.repeat(start_of, size_of) + _ranges(size_of)]]
+        mine = owner[corner]
+        smooth = (elements.normal[mine] * elements.normal[partner]).sum(axis=1) >= np.cos(SMOOTH_ANGLE_RAD)
+        weight = elements.area_m2[partner] * smooth
+        light = self.element_light()
+        total = np.zeros((3 * len(elements.node), 3))
+        np.add.at(total, corner, weight[:, None] * light[partner])
+        norm = np.bincount(corner, weights=weight, minlength=3 * len(elements.node))
+        return (total / norm[:, None]).reshape(-1, 3, 3)
+
+    def evaluate(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+        """(m, 3) light at surface points given by scene triangle index and barycentrics in that triangle.
+
+        Points on "shadow only" triangles (not solved) get NaN.
+        """
+        scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
+        to_mesh = np.full(len(self.scene.triangles), -1)
+        to_mesh[self.mesh.triangle_scene] = np.arange(len(self.mesh.triangle_scene))
+        mesh_triangle = to_mesh[scene_triangle]
+        solved = mesh_triangle >= 0
+        out = np.full((len(scene_triangle), 3), np.nan)
+        node, local = self.mesh.locate(mesh_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved])
+        position = np.full(len(self.mesh.node_bary), -1)
+        position[self.state.elements.node] = np.arange(self.element_count)
+        out[solved] = np.einsum("mc,mck->mk", local, self.corner_light()[position[node]])
+        return out
+
+    def radiosity_mesh(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The element mesh with its light: (V, 3) vertices, (n, 3) triangles, (n, 3, 3) corner light."""
+        vertices, corner_vertex = weld_vertices(self.mesh, self.state.elements.node, self.weld_tolerance_m)
+        return vertices, corner_vertex, self.corner_light()
+
+
+def _ranges(sizes: np.ndarray) -> np.ndarray:
+    """Concatenation of arange(s) for each s in sizes."""
+    ends = np.cumsum(sizes)
+    return np.arange(ends[-1] if len(ends) else 0) - np.repeat(ends - sizes, sizes)

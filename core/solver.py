@@ -1,0 +1,221 @@
+"""Radiosity solvers over patches (shooters) and elements (receivers), RGB throughout.
+
+Discretisation (Cohen et al. 1986, substructuring): patch j carries the area-weighted mean radiosity of its
+elements; an element's irradiance is H_e = H_direct,e + sum_j F(e -> j) B_j and its radiosity
+B_e = E_e + rho_e H_e. The patch-to-patch coupling is the area-weighted mean of element rows,
+F(i -> j) = sum_{e in i} A_e F(e -> j) / A_i. Both solvers converge to the same answer:
+
+- ``solve_direct``: the matrix of the radiosity equation at patch level, (I - rho F) B = E (radiosity paper,
+  section 4), solved by Gaussian elimination (numpy.linalg.solve). It is the reference for small scenes and
+  refuses large ones.
+- ``solve_progressive``: progressive refinement (Cohen et al. 1988): repeatedly shoot the patch with the most
+  unshot power. Shooting patch j adds rho_i F(i -> j) dB_j to every patch's unshot radiosity; a patch's column of
+  F is computed the first time it shoots (blocks of the strongest unshot patches at once, on all cores) and then
+  kept, so later shots cost O(P). Element irradiance is gathered from the shot totals whenever it is needed.
+  Memory: O(n + P^2) plus an optional element-row matrix under a byte budget that saves recomputing rows.
+  It stops when unshot power / injected power falls below a threshold.
+
+The invariant ``unshot_j = mean_j(B) - shot_j`` (what patch j holds minus what it already sent) holds after adaptive
+refinement changes the elements too, so a solve resumes on a refined mesh.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .mesh import Elements
+from .progress import BakeCancelled, Progress, never_cancelled, no_progress
+from .shooting import FormFactorMethod, Patches, row_blocks
+
+
+@dataclass
+class ConvergenceStep:
+    """One entry of a solve's history: shots so far, residual (unshot / injected power), seconds, rays cast."""
+
+    shots: int
+    residual: float
+    seconds: float
+    rays: int
+
+
+class FormFactors:
+    """Form factors known so far: the patch coupling F(i -> j) as (P, P) float32 columns, filled as patches
+    shoot, and, while n P float32 fit in ``row_budget_bytes``, the element rows F(e -> j) as an (n, P) matrix."""
+
+    def __init__(self, method: FormFactorMethod, patch_count: int, row_budget_bytes: int, threads: int):
+        self.method, self.threads, self.row_budget_bytes = method, threads, row_budget_bytes
+        self.coupling = np.zeros((patch_count, patch_count), dtype=np.float32)
+        self.known = np.zeros(patch_count, dtype=bool)
+        self.rows: np.ndarray | None = None
+        self.rows_known = np.zeros(patch_count, dtype=bool)
+
+    def compute(self, patches: np.ndarray, elements: Elements, patch_table: "Patches",
+                cancelled: Callable[[], bool] = never_cancelled) -> None:
+        """Compute element rows of the given patches (all cores); keep their coupling columns and rows."""
+        self._allocate_rows(len(elements.node))
+        for block, rows in row_blocks(self.method, patches, elements, self.threads):
+            if cancelled():
+                raise BakeCancelled("Bake cancelled while computing form factors.")
+            self.coupling[:, block] = patch_mean(rows, elements, patch_table)
+            self.known[block] = True
+            if self.rows is not None:
+                self.rows[:, block] = rows
+                self.rows_known[block] = True
+
+    def gather(self, weights: np.ndarray, elements: Elements, cancelled: Callable[[], bool] = never_cancelled,
+               store: bool = True):
+        """(n, 3) sum_j F(e -> j) weights_j over patches with non-zero weight, from stored or fresh rows.
+
+        With ``store`` False the elements are a subset (not the current set) and rows are neither read nor kept.
+        """
+        store = store and self.rows is not None
+        active = np.flatnonzero(np.abs(weights).sum(axis=1) > 0)
+        stored = active[self.rows_known[active]] if store else active[:0]
+        total = self.rows[:, stored] @ weights[stored] if len(stored) else np.zeros((len(elements.node), 3))
+        for block, rows in row_blocks(self.method, np.setdiff1d(active, stored), elements, self.threads):
+            if cancelled():
+                raise BakeCancelled("Bake cancelled while gathering light.")
+            total += rows @ weights[block]
+            if store:
+                self.rows[:, block] = rows
+                self.rows_known[block] = True
+        return total
+
+    def refine(self, old_position: np.ndarray, refined: Elements, cancelled: Callable[[], bool] = never_cancelled):
+        """Carry stored rows over to a refined element set; ``old_position`` is each refined element's position
+        in the old set, -1 for new ones, whose stored rows are computed here."""
+        if self.rows is None:
+            return
+        kept, new = old_position >= 0, np.flatnonzero(old_position < 0)
+        rows = np.zeros((len(old_position), self.rows.shape[1]), dtype=np.float32)
+        rows[kept] = self.rows[old_position[kept]]
+        self.rows = rows
+        subset = _subset(refined, new)
+        for block, block_rows in row_blocks(self.method, np.flatnonzero(self.rows_known), subset, self.threads):
+            if cancelled():
+                raise BakeCancelled("Bake cancelled during adaptive meshing.")
+            self.rows[np.ix_(new, block)] = block_rows
+
+    def _allocate_rows(self, count: int) -> None:
+        size = count * len(self.known) * 4
+        if self.rows is None and size <= self.row_budget_bytes:
+            self.rows = np.zeros((count, len(self.known)), dtype=np.float32)
+
+
+def _subset(elements: Elements, positions: np.ndarray) -> Elements:
+    return Elements(**{name: value[positions] for name, value in vars(elements).items()})
+
+
+@dataclass
+class RadiosityState:
+    """Per-element direct and total irradiance (W m^-2, (n, 3)) and per-patch shot radiosity ((P, 3))."""
+
+    elements: Elements
+    patches: Patches
+    direct_irradiance: np.ndarray
+    irradiance: np.ndarray
+    shot: np.ndarray
+    injected_power_w: float
+    history: list[ConvergenceStep] = field(default_factory=list)
+
+    @classmethod
+    def start(cls, elements: Elements, patches: Patches, direct_irradiance: np.ndarray) -> "RadiosityState":
+        state = cls(elements, patches, direct_irradiance, direct_irradiance.copy(),
+                    np.zeros((len(patches.area_m2), 3)), 0.0)
+        state.injected_power_w = float((state.radiosity * elements.area_m2[:, None]).sum())
+        return state
+
+    @property
+    def radiosity(self) -> np.ndarray:
+        return self.elements.emitted_exitance + self.elements.reflectance * self.irradiance
+
+    @property
+    def unshot(self) -> np.ndarray:
+        """(P, 3) radiosity each patch still has to send."""
+        return patch_mean(self.radiosity, self.elements, self.patches) - self.shot
+
+    @property
+    def residual(self) -> float:
+        """Unshot power over injected power (emission plus first reflection of direct light)."""
+        return _residual(self.unshot, self.patches.area_m2, self.injected_power_w)
+
+    def ambient(self) -> np.ndarray:
+        """(3,) ambient radiosity for intermediate display (Cohen et al. 1988, section 4.2):
+        R sum_j dB_j A_j / sum_j A_j with R = 1 / (1 - rho_avg); show B_e + rho_e ambient."""
+        area = self.elements.area_m2[:, None]
+        rho_avg = (self.elements.reflectance * area).sum(axis=0) / area.sum()
+        unshot_mean = (self.unshot * self.patches.area_m2[:, None]).sum(axis=0) / self.patches.area_m2.sum()
+        return unshot_mean / (1.0 - rho_avg)
+
+
+def patch_mean(values: np.ndarray, elements: Elements, patches: Patches) -> np.ndarray:
+    """Area-weighted mean of per-element values (n, c) over each patch: (P, c)."""
+    order = np.argsort(elements.patch, kind="stable")
+    patch_of = elements.patch[order]
+    starts = np.flatnonzero(np.r_[True, patch_of[1:] != patch_of[:-1]])
+    sums = np.add.reduceat(values[order] * elements.area_m2[order, None], starts, axis=0)
+    out = np.zeros((len(patches.area_m2), values.shape[1]), dtype=np.result_type(values, np.float64))
+    out[patch_of[starts]] = sums
+    return out / patches.area_m2[:, None]
+
+
+def _residual(unshot: np.ndarray, patch_area: np.ndarray, injected_power_w: float) -> float:
+    return float((np.abs(unshot) * patch_area[:, None]).sum() / injected_power_w) if injected_power_w > 0 else 0.0
+
+
+def solve_progressive(state: RadiosityState, factors: FormFactors, residual_threshold: float, max_shots: int,
+                      rays: Callable[[], int] = lambda: 0, progress: Progress = no_progress,
+                      cancelled: Callable[[], bool] = never_cancelled) -> RadiosityState:
+    """Shoot the patch with the most unshot power until the residual is below ``residual_threshold``."""
+    started = time.perf_counter()
+    patch_area = state.patches.area_m2
+    reflectance = patch_mean(state.elements.reflectance, state.elements, state.patches)
+    unshot = state.unshot
+    residual = _residual(unshot, patch_area, state.injected_power_w)
+    shots = state.history[-1].shots if state.history else 0
+    state.history.append(ConvergenceStep(shots, residual, 0.0, rays()))
+    batch = max(1, factors.threads) * max(1, (1 << 17) // max(1, len(state.elements.node)))
+    while residual > residual_threshold and shots < max_shots:
+        if cancelled():
+            raise BakeCancelled("Bake cancelled during the radiosity solve.")
+        power = np.abs(unshot).sum(axis=1) * patch_area
+        patch = int(np.argmax(power))
+        if not factors.known[patch]:
+            strongest = np.argsort(-np.where(factors.known, -1.0, power), kind="stable")[:batch]
+            factors.compute(strongest[~factors.known[strongest]], state.elements, state.patches, cancelled)
+        delta = unshot[patch].copy()
+        state.shot[patch] += delta
+        unshot += reflectance * factors.coupling[:, patch:patch + 1] * delta
+        unshot[patch] -= delta
+        residual = _residual(unshot, patch_area, state.injected_power_w)
+        shots += 1
+        state.history.append(ConvergenceStep(shots, residual, time.perf_counter() - started, rays()))
+        if shots % 64 == 0:
+            progress(min(1.0, np.log(max(residual, 1e-12)) / np.log(max(residual_threshold, 1e-12))),
+                     f"Shooting: {shots} shots, residual {residual:.4f}")
+    progress(1.0, f"Gathering light on {len(state.elements.node)} elements")
+    state.irradiance = state.direct_irradiance + factors.gather(state.shot, state.elements, cancelled)
+    return state
+
+
+def solve_direct(state: RadiosityState, factors: FormFactors, max_patches: int = 6000,
+                 cancelled: Callable[[], bool] = never_cancelled) -> RadiosityState:
+    """Gaussian elimination of (I - rho F) B = E + rho H_direct at patch level; then every element gathers."""
+    elements, patches = state.elements, state.patches
+    count = len(patches.area_m2)
+    if count > max_patches:
+        raise ValueError(f"The direct solver is limited to {max_patches} patches (this scene has {count}): "
+                         "use the progressive solver or larger patches.")
+    factors.compute(np.flatnonzero(~factors.known), elements, patches, cancelled)
+    reflectance = patch_mean(elements.reflectance, elements, patches)
+    source = patch_mean(elements.emitted_exitance + elements.reflectance * state.direct_irradiance, elements, patches)
+    coupling = factors.coupling.astype(np.float64)
+    radiosity = np.stack([np.linalg.solve(np.eye(count) - reflectance[:, c:c + 1] * coupling, source[:, c])
+                          for c in range(3)], axis=1)
+    state.shot = radiosity
+    state.irradiance = state.direct_irradiance + factors.gather(radiosity, elements, cancelled)
+    state.history.append(ConvergenceStep(count, state.residual, 0.0, 0))
+    return state

@@ -1,0 +1,52 @@
+"""Test geometry: boxes, quads and spheres as (T, 3, 3) triangle arrays."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def quad(a, b, c, d) -> np.ndarray:
+    """Two triangles of the planar quad a-b-c-d (counter-clockwise seen from the front)."""
+    a, b, c, d = (np.asarray(p, dtype=np.float64) for p in (a, b, c, d))
+    return np.stack([np.stack([a, b, c]), np.stack([a, c, d])])
+
+
+def box_faces(lo=(0, 0, 0), hi=(1, 1, 1), inward=True) -> list[np.ndarray]:
+    """Six faces of an axis-aligned box as lists of 2 triangles: -x, +x, -y, +y, -z (floor), +z (ceiling).
+
+    ``inward`` orients normals into the box (a room); otherwise out of it (a solid block).
+    """
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    faces = [
+        quad((x0, y0, z0), (x0, y1, z0), (x0, y1, z1), (x0, y0, z1)),  # -x, normal +x
+        quad((x1, y0, z0), (x1, y0, z1), (x1, y1, z1), (x1, y1, z0)),  # +x, normal -x
+        quad((x0, y0, z0), (x0, y0, z1), (x1, y0, z1), (x1, y0, z0)),  # -y, normal +y
+        quad((x0, y1, z0), (x1, y1, z0), (x1, y1, z1), (x0, y1, z1)),  # +y, normal -y
+        quad((x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0)),  # floor, normal +z
+        quad((x0, y0, z1), (x0, y1, z1), (x1, y1, z1), (x1, y0, z1)),  # ceiling, normal -z
+    ]
+    return faces if inward else [f[:, ::-1] for f in faces]
+
+
+def uv_sphere(radius: float, bands_z: np.ndarray, segments: int, ring_height: float = 0.05, inward: bool = True):
+    """Triangles of a sphere cut into latitude bands at the given z values (z from -r to r), each band made of
+    rings of about ``ring_height`` and ``segments`` around.
+
+    Returns (triangles, band index per triangle). Normals face the centre when ``inward``.
+    """
+    tris, band = [], []
+    angles = np.linspace(0, 2 * np.pi, segments + 1)
+    rings = [(b, z0, z1) for b, (lo, hi) in enumerate(zip(bands_z[:-1], bands_z[1:]))
+             for z0, z1 in zip(*(lambda e: (e[:-1], e[1:]))(np.linspace(lo, hi, int(np.ceil((hi - lo) / ring_height)) + 1)))]
+    for b, z0, z1 in rings:
+        r0, r1 = np.sqrt(max(radius ** 2 - z0 ** 2, 0)), np.sqrt(max(radius ** 2 - z1 ** 2, 0))
+        for a0, a1 in zip(angles[:-1], angles[1:]):
+            p00 = (r0 * np.cos(a0), r0 * np.sin(a0), z0)
+            p01 = (r0 * np.cos(a1), r0 * np.sin(a1), z0)
+            p10 = (r1 * np.cos(a0), r1 * np.sin(a0), z1)
+            p11 = (r1 * np.cos(a1), r1 * np.sin(a1), z1)
+            for t in ((p00, p10, p11), (p00, p11, p01)):
+                t = np.array(t)
+                if np.linalg.norm(np.cross(t[1] - t[0], t[2] - t[0])) > 1e-12:
+                    tris.append(t if inward else t[::-1])
+                    band.append(b)
+    return np.array(tris), np.array(band)
