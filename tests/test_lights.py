@@ -1,0 +1,132 @@
+"""Direct light of each light type against its closed form (docs/references.md, Blender's conventions)."""
+import numpy as np
+import pytest
+
+from core.lights import area_light_area_m2, direct_irradiance, spot_mask
+from core.raycast import RayCaster
+from core.scene import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
+from shapes import quad
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def plane_scene(lights, world=World(), occluder=False):
+    """A 20 m floor at z = 0 (and optionally a 1 m square roof at z = 1 over the origin, facing down)."""
+    triangles = [quad((-10, -10, 0), (10, -10, 0), (10, 10, 0), (-10, 10, 0))]
+    if occluder:
+        triangles.append(quad((-0.5, -0.5, 1), (-0.5, 0.5, 1), (0.5, 0.5, 1), (0.5, -0.5, 1)))
+    triangles = np.concatenate(triangles)
+    return Scene(triangles, np.zeros(len(triangles), int), [Material("floor")], lights=lights, world=world)
+
+
+def irradiance_at(scene, points, samples_per_edge=4):
+    points = np.asarray(points, dtype=np.float64)
+    caster = RayCaster(scene.triangles)
+    return direct_irradiance(scene, caster, points, np.tile(UP, (len(points), 1)), 1e-5, samples_per_edge, seed=3)
+
+
+FLOOR_POINTS = np.array([[0.0, 0.0, 0.0], [1.0, 0.5, 0.0], [-2.0, 3.0, 0.0]])
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.1])
+def test_point_light_inverse_square_cosine(radius):
+    """E = P cos(theta) / (4 pi r^2); 100 W at 1 m gives 7.958 W/m^2 (Cycles bakes 2.533 = E / pi)."""
+    light = PointLight("bulb", (0.0, 0.0, 1.0), power_w=100.0, color=(1.0, 0.5, 0.25), radius_m=radius)
+    measured = irradiance_at(plane_scene([light]), FLOOR_POINTS)
+    offset = np.array(light.position) - FLOOR_POINTS
+    r = np.linalg.norm(offset, axis=1)
+    expected = 100.0 * (offset[:, 2] / r) / (4 * np.pi * r ** 2)
+    assert measured == pytest.approx(expected[:, None] * [1.0, 0.5, 0.25], rel=1e-9)
+    assert measured[0, 0] / np.pi == pytest.approx(2.533, abs=1e-3)
+
+
+def test_point_light_shadow():
+    light = PointLight("bulb", (0.0, 0.0, 2.0), power_w=100.0)
+    measured = irradiance_at(plane_scene([light], occluder=True), [[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    assert measured[0] == pytest.approx(0.0, abs=1e-12)
+    assert measured[1, 0] > 0
+
+
+def test_sized_point_light_gives_a_penumbra():
+    """Under the edge of the occluder the sized light is half hidden."""
+    light = PointLight("bulb", (0.0, 0.0, 2.0), power_w=100.0, radius_m=0.2)
+    edge = np.array([[1.0, 0.0, 0.0]])  # the occluder's edge x = 0.5 at z = 1 projects to x = 1 from z = 2
+    unshadowed = irradiance_at(plane_scene([light]), edge, samples_per_edge=8)
+    shadowed = irradiance_at(plane_scene([light], occluder=True), edge, samples_per_edge=8)
+    assert shadowed[0, 0] / unshadowed[0, 0] == pytest.approx(0.5, abs=0.1)
+
+
+def test_sun_strength_times_cosine():
+    direction = np.array([1.0, 0.0, -1.0])
+    light = SunLight("sun", tuple(direction), strength_w_m2=3.0, angle_rad=np.radians(0.5))
+    measured = irradiance_at(plane_scene([light]), FLOOR_POINTS)
+    assert measured == pytest.approx(3.0 * np.cos(np.radians(45.0)), rel=1e-9)
+
+
+def test_sun_is_blocked_by_the_occluder():
+    light = SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)
+    measured = irradiance_at(plane_scene([light], occluder=True), [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    assert measured[:, 0] == pytest.approx([0.0, 3.0])
+
+
+def test_spot_light_cone():
+    """Inside the cone like a point light of the same power; outside dark; the blend region follows
+    Cycles' smoothstep."""
+    light = SpotLight("spot", (0.0, 0.0, 2.0), (0.0, 0.0, -1.0), power_w=100.0, spot_size_rad=np.radians(60),
+                      spot_blend=0.5)
+    points = np.array([[0.0, 0.0, 0.0], [0.9, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    measured = irradiance_at(plane_scene([light]), points)[:, 0]
+    offset = np.array(light.position) - points
+    r = np.linalg.norm(offset, axis=1)
+    point_light = 100.0 * (offset[:, 2] / r) / (4 * np.pi * r ** 2)
+    cos_axis = offset[:, 2] / r
+    cos_half = np.cos(np.radians(30))
+    t = np.clip((cos_axis - cos_half) / ((1 - cos_half) * 0.5), 0, 1)
+    assert measured == pytest.approx(point_light * t * t * (3 - 2 * t), rel=1e-9)
+    assert measured[0] == pytest.approx(point_light[0])
+    assert 0 < measured[1] < point_light[1]
+    assert measured[2] == 0.0
+    assert spot_mask(np.array([1.0, cos_half - 1e-6]), np.radians(60), 0.0).tolist() == [1.0, 0.0]
+
+
+@pytest.mark.parametrize("shape, size, size_y, form_factor", [
+    ("SQUARE", 1.0, None, 0.239456),  # Howell: differential area to a centred parallel unit square at distance 1
+    ("DISK", 2.0, None, 0.5),  # differential area to a coaxial disk of radius = height
+    ("RECTANGLE", 1.0, 1.0, 0.239456),
+    ("ELLIPSE", 2.0, 2.0, 0.5),
+])
+def test_area_light_closed_form(shape, size, size_y, form_factor):
+    """E = pi L F with L = P / (4 pi A) (Cycles): directly below a light 1 m up."""
+    light = AreaLight("panel", (0.0, 0.0, 1.0), (0.0, 0.0, -1.0), power_w=50.0, shape=shape, size_m=size,
+                      size_y_m=size_y)
+    measured = irradiance_at(plane_scene([light]), [[0.0, 0.0, 0.0]])[0, 0]
+    radiance = 50.0 / (4 * np.pi * area_light_area_m2(light))
+    assert measured == pytest.approx(np.pi * radiance * form_factor, rel=2e-3)
+
+
+def test_area_light_emits_from_one_side_only():
+    light = AreaLight("panel", (0.0, 0.0, 1.0), (0.0, 0.0, 1.0), power_w=50.0)  # faces up, away from the floor
+    assert irradiance_at(plane_scene([light]), FLOOR_POINTS).max() == 0.0
+
+
+def test_area_light_soft_shadow_is_between_zero_and_full():
+    light = AreaLight("panel", (0.0, 0.0, 2.0), (0.0, 0.0, -1.0), power_w=50.0, size_m=1.0)
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [4.0, 0.0, 0.0]])
+    free = irradiance_at(plane_scene([light]), points, samples_per_edge=8)[:, 0]
+    shadowed = irradiance_at(plane_scene([light], occluder=True), points, samples_per_edge=8)[:, 0]
+    assert shadowed[0] == 0.0
+    assert 0.2 * free[1] < shadowed[1] < 0.8 * free[1]
+    assert shadowed[2] == pytest.approx(free[2])
+
+
+def test_world_light_on_an_open_plane_is_pi_times_radiance():
+    scene = plane_scene([], world=World((0.5, 0.25, 1.0)))
+    measured = irradiance_at(scene, FLOOR_POINTS)
+    assert measured == pytest.approx(np.pi * np.array([0.5, 0.25, 1.0])[None].repeat(3, 0), rel=1e-9)
+
+
+def test_world_light_under_a_roof_is_reduced_by_its_cosine_weighted_solid_angle():
+    """Under a 1 m square roof 1 m up, the roof hides F = 0.239456 of the cosine-weighted sky."""
+    scene = plane_scene([], world=World((1.0, 1.0, 1.0)), occluder=True)
+    measured = irradiance_at(scene, [[0.0, 0.0, 0.0]], samples_per_edge=32)[0, 0]
+    assert measured == pytest.approx(np.pi * (1 - 0.239456), rel=0.01)

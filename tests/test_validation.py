@@ -1,0 +1,113 @@
+"""Every bad input raises SceneError with a message naming the offending object, material, light or setting."""
+import numpy as np
+import pytest
+
+from core import (AreaLight, BakeCancelled, BakeSettings, Material, PointLight, Scene, SceneError, SpotLight,
+                  SunLight, World, bake)
+from shapes import quad
+
+FLOOR = quad((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0))
+LAMP = PointLight("Lamp", (0.5, 0.5, 1.0), 10.0)
+
+
+def make(triangles=FLOOR, materials=(Material("Floor"),), lights=(LAMP,), world=World(), **kwargs):
+    triangles = np.asarray(triangles, dtype=np.float64)
+    return Scene(triangles, np.zeros(len(triangles), int), list(materials), lights=list(lights), world=world,
+                 object_names=["Plane"], **kwargs)
+
+
+def test_nan_vertex_names_the_object():
+    bad = FLOOR.copy()
+    bad[1, 2, 0] = np.nan
+    with pytest.raises(SceneError, match="Object 'Plane'.*NaN"):
+        make(bad)
+
+
+def test_infinite_vertex_names_the_object():
+    bad = FLOOR.copy()
+    bad[0, 0, 2] = np.inf
+    with pytest.raises(SceneError, match="'Plane'"):
+        make(bad)
+
+
+@pytest.mark.parametrize("reflectance", [(1.0, 0.5, 0.5), (0.5, 1.2, 0.5), (-0.1, 0.5, 0.5)])
+def test_reflectance_outside_zero_one_names_the_material(reflectance):
+    with pytest.raises(SceneError, match="Material 'Brick'.*reflectance"):
+        make(materials=[Material("Brick", reflectance)])
+
+
+def test_negative_emission_names_the_material():
+    with pytest.raises(SceneError, match="Material 'Glow'.*emitted radiance"):
+        make(materials=[Material("Glow", (0.5,) * 3, (-1.0, 0.0, 0.0))])
+
+
+@pytest.mark.parametrize("light", [
+    PointLight("Bulb", (0, 0, 1), -5.0),
+    SpotLight("Spot", (0, 0, 1), (0, 0, -1), -1.0, np.radians(45)),
+    SunLight("Sun", (0, 0, -1), -2.0),
+    AreaLight("Panel", (0, 0, 1), (0, 0, -1), -3.0),
+])
+def test_negative_power_names_the_light(light):
+    with pytest.raises(SceneError, match=f"Light '{light.name}'.*power"):
+        make(lights=[light])
+
+
+def test_bad_area_light_shape_and_size():
+    with pytest.raises(SceneError, match="Light 'Panel'.*shape"):
+        make(lights=[AreaLight("Panel", (0, 0, 1), (0, 0, -1), 3.0, shape="TRIANGLE")])
+    with pytest.raises(SceneError, match="Light 'Panel'.*size"):
+        make(lights=[AreaLight("Panel", (0, 0, 1), (0, 0, -1), 3.0, size_m=0.0)])
+
+
+def test_zero_direction_names_the_light():
+    with pytest.raises(SceneError, match="Light 'Sun'.*direction"):
+        make(lights=[SunLight("Sun", (0, 0, 0), 2.0)])
+
+
+def test_empty_scene():
+    with pytest.raises(SceneError, match="empty"):
+        make(np.zeros((0, 3, 3)))
+
+
+def test_scene_without_light():
+    with pytest.raises(SceneError, match="no light"):
+        make(lights=[])
+
+
+def test_negative_world_names_the_world():
+    with pytest.raises(SceneError, match="World"):
+        make(world=World((-1.0, 0.0, 0.0)))
+
+
+def test_zero_area_triangles_are_dropped_and_counted():
+    degenerate = np.array([[[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 0, 0], [0, 0, 0], [0, 0, 0]]], dtype=float)
+    scene = make(np.concatenate([FLOOR, degenerate]))
+    assert scene.dropped_triangles == 2
+    assert len(scene.triangles) == 2
+    assert scene.triangle_source.tolist() == [0, 1]
+
+
+def test_only_degenerate_triangles_is_nothing_to_bake():
+    with pytest.raises(SceneError, match="Nothing to bake"):
+        make(np.zeros((2, 3, 3)))
+
+
+@pytest.mark.parametrize("setting, value", [("element_size_m", 0.0), ("patch_size_m", -1.0),
+                                            ("residual_threshold", float("nan")), ("adaptive_passes", -1),
+                                            ("form_factors", "radiant"), ("solver", "magic")])
+def test_bad_setting_names_the_setting(setting, value):
+    with pytest.raises(SceneError, match=f"'{setting}'"):
+        BakeSettings(**{setting: value})
+
+
+def test_cancelled_bake_raises_bake_cancelled():
+    calls = []
+
+    def cancelled():
+        calls.append(1)
+        return len(calls) > 3
+
+    room = np.concatenate([FLOOR, quad((0, 0, 1), (0, 1, 1), (1, 1, 1), (1, 0, 1))])
+    with pytest.raises(BakeCancelled):
+        bake(make(room), BakeSettings(patch_size_m=0.25, element_size_m=0.125, residual_threshold=1e-6),
+             cancelled=cancelled)
