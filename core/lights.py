@@ -3,7 +3,7 @@
 Closed forms (unoccluded), each multiplied by the visible share found with stratified shadow rays:
 - point / spot: E = I cos(theta) / r^2 with I = P / (4 pi) (Blender's convention; spot x cone mask);
 - sun: E = S cos(theta);
-- area: E = pi L F(point -> light polygon), L = P / (4 pi A), F by Lambert's contour formula;
+- area: E = pi L F(point -> light polygon), L = P / (pi A), F by Lambert's contour formula;
 - world: E = pi L_world x (share of cosine-weighted directions that escape the scene).
 """
 from __future__ import annotations
@@ -117,7 +117,7 @@ def _area(light: AreaLight, caster, points, normals, offset_m, samples_per_edge,
     """Area light: pi L F(point -> polygon), lit only on the emitting side, times the visible share."""
     polygon = area_light_polygon(light)
     direction = _light_frame(light)[2]
-    radiance = light.power_w / (4 * np.pi * area_light_area_m2(light))
+    radiance = light.power_w / (np.pi * area_light_area_m2(light))
     in_front = (points - np.asarray(light.position)) @ direction > 0
     irradiance = np.zeros(len(points))
     front = np.flatnonzero(in_front)

@@ -5,7 +5,7 @@ Units follow Blender / Cycles (see docs/units.md):
 - a material's ``emitted_radiance`` is L in W m^-2 sr^-1 per channel; its exitance is pi L;
 - point and spot lights carry a power P in W with radiant intensity P / (4 pi) (Blender's convention);
 - a sun carries its strength S in W m^-2 (irradiance S cos(theta));
-- an area light carries a power P in W, spread as radiance P / (4 pi A) over its emitting side (Cycles);
+- an area light carries a power P in W, emitted as radiance P / (pi A) from its emitting side (Cycles);
 - the world is a constant background radiance.
 
 Validation happens once, on construction, and raises :class:`SceneError` naming the offending item.

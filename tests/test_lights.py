@@ -96,11 +96,11 @@ def test_spot_light_cone():
     ("ELLIPSE", 2.0, 2.0, 0.5),
 ])
 def test_area_light_closed_form(shape, size, size_y, form_factor):
-    """E = pi L F with L = P / (4 pi A) (Cycles): directly below a light 1 m up."""
+    """E = pi L F with L = P / (pi A) (measured against a Cycles bake, docs/units.md): below a light 1 m up."""
     light = AreaLight("panel", (0.0, 0.0, 1.0), (0.0, 0.0, -1.0), power_w=50.0, shape=shape, size_m=size,
                       size_y_m=size_y)
     measured = irradiance_at(plane_scene([light]), [[0.0, 0.0, 0.0]])[0, 0]
-    radiance = 50.0 / (4 * np.pi * area_light_area_m2(light))
+    radiance = 50.0 / (np.pi * area_light_area_m2(light))
     assert measured == pytest.approx(np.pi * radiance * form_factor, rel=2e-3)
 
 
