@@ -63,7 +63,7 @@ class BakeSettings:
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise SceneError(f"Setting '{name}' must be a positive number, got {value}.")
-        for name in ("adaptive_passes", "row_cache_mb", "threads"):
+        for name in ("adaptive_passes", "row_cache_mb", "threads", "seed"):
             if getattr(self, name) < 0:
                 raise SceneError(f"Setting '{name}' must not be negative, got {getattr(self, name)}.")
         if self.form_factors not in ("raycast", "hemicube"):

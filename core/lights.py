@@ -28,7 +28,8 @@ def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, norma
         irradiance += scalar[:, None] * np.asarray(light.color, dtype=np.float64)
     world = np.asarray(scene.world.radiance, dtype=np.float64)
     if world.max() > 0:
-        escaped = _world_escape_share(caster, points, normals, offset_m, samples_per_edge, seed - 1)
+        escaped = _world_escape_share(caster, points, normals, offset_m, samples_per_edge,
+                                       seed + 7919 * len(scene.lights))
         irradiance += np.pi * escaped[:, None] * world
     return irradiance
 

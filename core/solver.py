@@ -28,6 +28,7 @@ import numpy as np
 
 from .mesh import Elements
 from .progress import BakeCancelled, Progress, never_cancelled, no_progress
+from .scene import SceneError
 from .shooting import FormFactorMethod, Patches, row_blocks
 
 
@@ -207,7 +208,7 @@ def solve_direct(state: RadiosityState, factors: FormFactors, max_patches: int =
     elements, patches = state.elements, state.patches
     count = len(patches.area_m2)
     if count > max_patches:
-        raise ValueError(f"The direct solver is limited to {max_patches} patches (this scene has {count}): "
+        raise SceneError(f"The direct solver is limited to {max_patches} patches (this scene has {count}): "
                          "use the progressive solver or larger patches.")
     factors.compute(np.flatnonzero(~factors.known), elements, patches, cancelled)
     reflectance = patch_mean(elements.reflectance, elements, patches)

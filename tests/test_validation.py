@@ -93,11 +93,23 @@ def test_only_degenerate_triangles_is_nothing_to_bake():
 
 
 @pytest.mark.parametrize("setting, value", [("element_size_m", 0.0), ("patch_size_m", -1.0),
-                                            ("residual_threshold", float("nan")), ("adaptive_passes", -1),
+                                            ("residual_threshold", float("nan")), ("adaptive_passes", -1), ("seed", -1),
                                             ("form_factors", "radiant"), ("solver", "magic")])
 def test_bad_setting_names_the_setting(setting, value):
     with pytest.raises(SceneError, match=f"'{setting}'"):
         BakeSettings(**{setting: value})
+
+
+def test_world_light_with_the_default_seed():
+    """Regression: seed 0 once gave the world sampler a negative seed."""
+    solution = bake(make(lights=[], world=World((1.0, 1.0, 1.0))), BakeSettings(patch_size_m=1, element_size_m=0.5))
+    assert solution.element_light() == pytest.approx(1.0)  # an open plane under a white sky: pi L / pi
+
+
+def test_direct_solver_refuses_too_many_patches():
+    scene = make(quad((0, 0, 0), (10, 0, 0), (10, 10, 0), (0, 10, 0)))
+    with pytest.raises(SceneError, match="direct solver is limited"):
+        bake(scene, BakeSettings(solver="direct", patch_size_m=0.1, element_size_m=0.1))
 
 
 def test_cancelled_bake_raises_bake_cancelled():

@@ -1,0 +1,126 @@
+"""The command line: one parser and one code path for
+
+    blender -b -c radiosity_bake IN.blend -o OUT.blend [options]
+    python -m radiosity_addon bake IN.blend -o OUT.blend [options]      (with the bpy module)
+
+Exit 0 on success; otherwise a one-line reason on stderr and a non-zero code:
+2 bad argument, 3 missing or unreadable input, 4 nothing to bake or bad scene, 5 unwritable output, 1 other.
+Progress goes to stderr.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+from .presets import PRESETS, UserSettings
+
+EXIT_BAD_ARGUMENT, EXIT_INPUT, EXIT_SCENE, EXIT_OUTPUT, EXIT_OTHER = 2, 3, 4, 5, 1
+
+
+class CommandError(Exception):
+    def __init__(self, code: int, message: str):
+        super().__init__(message)
+        self.code = code
+
+
+def build_parser(prog: str) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=prog, description="Bake diffuse light by radiosity into colour attributes of a .blend file. Values "
+        "are irradiance / pi, as Cycles' Diffuse bake with Direct + Indirect and no Color stores them.")
+    parser.add_argument("input", metavar="IN.blend", help="the .blend file to bake")
+    parser.add_argument("-o", "--output", metavar="OUT.blend", required=True, help="where to save the baked file")
+    parser.add_argument("--report", metavar="REPORT.json", help="write a JSON report of outputs and timings")
+    parser.add_argument("--target", choices=["vertex_colors", "lightmap", "both"], default="vertex_colors",
+                        help="what to bake into (lightmaps are not available yet)")
+    parser.add_argument("--quality", choices=[q.lower() for q in PRESETS] + ["custom"], default="medium",
+                        help="preset; 'custom' uses the options below (default: medium)")
+    parser.add_argument("--element-size", type=float, default=0.25, help="element edge length, m (custom)")
+    parser.add_argument("--patch-size", type=float, default=1.0, help="patch edge length, m (custom)")
+    parser.add_argument("--adaptive-passes", type=int, default=1, help="adaptive meshing passes (custom)")
+    parser.add_argument("--residual", type=float, default=0.01, help="stop at this unshot power share (custom)")
+    parser.add_argument("--light-samples", type=int, default=4, help="shadow rays per element: this squared")
+    parser.add_argument("--form-factors", choices=["raycast", "hemicube"], default="raycast")
+    parser.add_argument("--attribute", default="Radiosity", help="colour attribute name (default: Radiosity)")
+    parser.add_argument("--radiosity-mesh", action="store_true", help="also add the element mesh as an object")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the stratified samples")
+    return parser
+
+
+def run(argv: list[str], prog: str = "radiosity_bake") -> int:
+    """Parse, bake, save; returns the exit code (argparse exits with 2 itself on a bad argument)."""
+    args = build_parser(prog).parse_args(argv)
+    try:
+        report = _bake(args)
+    except CommandError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return error.code
+    print(f"[radiosity] done: {len(report['objects'])} object(s), {report['elements']} elements, "
+          f"residual {report['residual']:.4f}, {report['seconds']:.1f} s", file=sys.stderr)
+    return 0
+
+
+def _bake(args) -> dict:
+    import bpy
+    from ..core import BakeCancelled, SceneError
+    from . import job as bake_job
+    if args.target != "vertex_colors":
+        raise CommandError(EXIT_BAD_ARGUMENT, f"--target {args.target}: lightmaps are not available yet; "
+                                              "use --target vertex_colors")
+    if not os.path.isfile(args.input):
+        raise CommandError(EXIT_INPUT, f"input file not found: {args.input}")
+    for path, what in ((args.output, "output"), (args.report, "report")):
+        if path and not _writable(path):
+            raise CommandError(EXIT_OUTPUT, f"cannot write the {what} file: {path} (missing or read-only folder)")
+    try:
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.input), load_ui=False)
+    except RuntimeError as error:
+        raise CommandError(EXIT_INPUT, f"cannot read {args.input}: {str(error).strip().splitlines()[-1]}")
+    user = UserSettings(args.quality.upper(), args.element_size, args.patch_size, args.adaptive_passes,
+                        args.residual, args.light_samples, args.form_factors, args.seed)
+    started = time.perf_counter()
+    try:
+        job = bake_job.prepare(bpy.context, user, args.attribute, args.radiosity_mesh)
+        bake_job.solve(job, _progress_to_stderr(), lambda: False)
+    except SceneError as error:
+        raise CommandError(EXIT_SCENE, str(error))
+    except BakeCancelled as error:
+        raise CommandError(EXIT_OTHER, str(error))
+    report = bake_job.apply(job)
+    report["seconds"] = time.perf_counter() - started
+    report["input"], report["output"] = os.path.abspath(args.input), os.path.abspath(args.output)
+    try:
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.output))
+    except RuntimeError as error:
+        raise CommandError(EXIT_OUTPUT, f"cannot save {args.output}: {str(error).strip().splitlines()[-1]}")
+    if args.report:
+        with open(args.report, "w", encoding="utf-8") as handle:
+            json.dump(report, handle, indent=2)
+    return report
+
+
+def _writable(path: str) -> bool:
+    folder = os.path.dirname(os.path.abspath(path))
+    return os.path.isdir(folder) and os.access(folder, os.W_OK) and (not os.path.exists(path) or
+                                                                      os.access(path, os.W_OK))
+
+
+def _progress_to_stderr():
+    last = {"message": None, "time": 0.0}
+
+    def progress(fraction, message):
+        now = time.perf_counter()
+        if message != last["message"] and now - last["time"] > 0.5:
+            print(f"[radiosity] {message}", file=sys.stderr, flush=True)
+            last.update(message=message, time=now)
+    return progress
+
+
+def blender_command(argv: list[str]) -> int:
+    """Entry point registered with bpy.utils.register_cli_command('radiosity_bake', ...)."""
+    try:
+        return run(list(argv), prog="blender -b -c radiosity_bake")
+    except SystemExit as exit_:  # argparse: --help (0) or a bad argument (2)
+        return int(exit_.code or 0)

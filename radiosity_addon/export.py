@@ -1,0 +1,240 @@
+"""Export what Blender renders into a core.Scene: evaluated meshes, materials, lights and the world.
+
+Geometry comes from the evaluated depsgraph (modifiers applied, instances and linked duplicates included) through
+foreach_get, in world space. Objects disabled in renders are skipped; an object's Radiosity mode can exclude it or
+make it "shadow only" (casts shadows, is not baked). Light and emission conventions: docs/units.md.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+from ..core import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
+
+GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+DEFAULT_MATERIAL = Material("(no material)", (0.8, 0.8, 0.8))
+
+
+@dataclass
+class ExportedObject:
+    """Where one object instance's triangles sit in the exported scene.
+
+    first_triangle / triangle_count: its range in the scene's input triangles; corner_loops: (t, 3) loop of each
+    triangle corner in the evaluated mesh; writable: a real (not instanced) mesh object that is baked;
+    same_topology: its evaluated mesh has the original mesh's loops, so values map loop to loop.
+    """
+
+    name: str
+    mesh_name: str
+    first_triangle: int
+    triangle_count: int
+    corner_loops: np.ndarray
+    writable: bool
+    same_topology: bool
+
+
+@dataclass
+class Export:
+    scene: Scene
+    objects: list[ExportedObject]
+    warnings: list[str] = field(default_factory=list)
+
+
+def export_scene(context) -> Export:
+    """Read the evaluated scene; raises core.SceneError (naming the item) for what the core refuses."""
+    depsgraph = context.evaluated_depsgraph_get()
+    materials = _Materials()
+    triangles, material_index, casts_only, objects, object_index = [], [], [], [], []
+    lights, names = [], []
+    for instance in depsgraph.object_instances:
+        evaluated = instance.object
+        original = evaluated.original
+        owner = instance.parent.original if instance.is_instance and instance.parent else original
+        if owner.hide_render or original.hide_render:
+            continue
+        if evaluated.type == "LIGHT":
+            lights.append(_light(evaluated, np.array(instance.matrix_world)))
+            continue
+        mode = _mode(owner) if instance.is_instance else _mode(original)
+        if evaluated.type not in GEOMETRY_TYPES or mode == "EXCLUDE":
+            continue
+        part = _mesh_triangles(evaluated, np.array(instance.matrix_world), materials)
+        if part is None:
+            continue
+        world_triangles, slots, loops = part
+        name = original.name if not instance.is_instance else f"{original.name} (instance of {owner.name})"
+        first = sum(len(t) for t in triangles)
+        objects.append(ExportedObject(
+            name=original.name, mesh_name=original.data.name if original.type == "MESH" else "",
+            first_triangle=first, triangle_count=len(world_triangles), corner_loops=loops,
+            writable=(not instance.is_instance and original.type == "MESH" and mode == "BAKE"),
+            same_topology=_same_topology(evaluated, original)))
+        names.append(name)
+        triangles.append(world_triangles)
+        material_index.append(slots)
+        casts_only.append(np.full(len(world_triangles), mode == "SHADOW_ONLY"))
+        object_index.append(np.full(len(world_triangles), len(names) - 1))
+    stack = lambda parts, shape, dtype: np.concatenate(parts) if parts else np.zeros(shape, dtype)
+    scene = Scene(stack(triangles, (0, 3, 3), float), stack(material_index, 0, int), materials.list or
+                  [DEFAULT_MATERIAL], lights=lights, world=_world(context.scene, materials.warnings),
+                  object_index=stack(object_index, 0, int), object_names=names,
+                  casts_only=stack(casts_only, 0, bool))
+    return Export(scene, objects, materials.warnings)
+
+
+def _mode(obj) -> str:
+    settings = getattr(obj, "radiosity", None)
+    return settings.mode if settings is not None else "BAKE"
+
+
+def _same_topology(evaluated, original) -> bool:
+    if original.type != "MESH":
+        return False
+    mesh = evaluated.data
+    return len(mesh.loops) == len(original.data.loops) and len(mesh.polygons) == len(original.data.polygons)
+
+
+def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials"):
+    """World-space (t, 3, 3) triangles, global material indices (t,) and corner loops (t, 3), or None."""
+    mesh = evaluated.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        count = len(mesh.loop_triangles)
+        if count == 0:
+            return None
+        positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", positions)
+        corners = np.empty(count * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("vertices", corners)
+        loops = np.empty(count * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        slot = np.empty(count, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("material_index", slot)
+    finally:
+        evaluated.to_mesh_clear()
+    world = positions.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+    corners, loops = corners.reshape(-1, 3), loops.reshape(-1, 3)
+    if np.linalg.det(matrix[:3, :3]) < 0:  # mirrored: keep the winding consistent with Blender's normals
+        corners, loops = corners[:, ::-1], loops[:, ::-1]
+    table = np.array([materials.index(s.material) for s in evaluated.material_slots] or [materials.index(None)])
+    return world[corners], table[np.clip(slot, 0, len(table) - 1)], loops
+
+
+class _Materials:
+    """Blender materials read once each into core Materials, with a warning for node setups we cannot read."""
+
+    def __init__(self):
+        self.list: list[Material] = []
+        self.warnings: list[str] = []
+        self._index: dict[str, int] = {}
+
+    def index(self, material) -> int:
+        key = material.name if material is not None else ""
+        if key not in self._index:
+            self._index[key] = len(self.list)
+            self.list.append(read_material(material, self.warnings))
+        return self._index[key]
+
+
+def read_material(material, warnings: list[str]) -> Material:
+    """Reflectance and emitted radiance from the node tree.
+
+    Principled BSDF: Base Color (an Image Texture feeding it is averaged over the image), Emission Color x
+    Emission Strength; Diffuse BSDF: Color; Emission: Color x Strength (no reflection). Anything else: the
+    material's viewport colour, with a warning naming the material.
+    """
+    if material is None:
+        return DEFAULT_MATERIAL
+    fallback = Material(material.name, tuple(material.diffuse_color[:3]))
+    tree = material.node_tree if getattr(material, "use_nodes", True) else None
+    surface = _surface_node(tree)
+    if surface is None:
+        warnings.append(f"Material '{material.name}': no node setup with a surface shader; using its viewport "
+                        "colour.")
+        return fallback
+    if surface.type == "BSDF_PRINCIPLED":
+        base = _colour(surface.inputs["Base Color"], material.name, warnings)
+        emission = np.array(surface.inputs["Emission Color"].default_value[:3]) * \
+            surface.inputs["Emission Strength"].default_value
+        return Material(material.name, base, tuple(emission))
+    if surface.type == "BSDF_DIFFUSE":
+        return Material(material.name, _colour(surface.inputs["Color"], material.name, warnings))
+    if surface.type == "EMISSION":
+        emission = np.array(surface.inputs["Color"].default_value[:3]) * surface.inputs["Strength"].default_value
+        return Material(material.name, (0.0, 0.0, 0.0), tuple(emission))
+    warnings.append(f"Material '{material.name}': the '{surface.name}' shader is not understood; using its "
+                    "viewport colour as a diffuse reflectance.")
+    return fallback
+
+
+def _surface_node(tree):
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output] or \
+              [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
+    if not outputs or not outputs[0].inputs["Surface"].is_linked:
+        return None
+    return outputs[0].inputs["Surface"].links[0].from_node
+
+
+def _colour(socket, material_name: str, warnings: list[str]) -> tuple[float, float, float]:
+    if not socket.is_linked:
+        return tuple(socket.default_value[:3])
+    source = socket.links[0].from_node
+    if source.type == "TEX_IMAGE" and source.image is not None:
+        return image_average(source.image)
+    warnings.append(f"Material '{material_name}': '{socket.name}' is driven by a '{source.name}' node that is not "
+                    "read; using the socket's own colour.")
+    return tuple(socket.default_value[:3])
+
+
+def image_average(image) -> tuple[float, float, float]:
+    """Mean linear RGB of an image (sRGB byte images are linearised first)."""
+    pixels = np.empty(len(image.pixels), dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    rgb = pixels.reshape(-1, image.channels)[:, :3].astype(np.float64)
+    if not image.is_float and image.colorspace_settings.name == "sRGB":
+        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return tuple(rgb.mean(axis=0))
+
+
+def _light(obj, matrix: np.ndarray):
+    data = obj.data
+    position = tuple(matrix[:3, 3])
+    direction = tuple(-matrix[:3, 2] / np.linalg.norm(matrix[:3, 2]))
+    color = tuple(data.color)
+    if data.type == "SUN":
+        return SunLight(obj.name, direction, data.energy, color, data.angle)
+    if data.type == "SPOT":
+        return SpotLight(obj.name, position, direction, data.energy, data.spot_size, data.spot_blend, color,
+                         data.shadow_soft_size)
+    if data.type == "AREA":
+        scale_x, scale_y = np.linalg.norm(matrix[:3, 0]), np.linalg.norm(matrix[:3, 1])
+        size_y = data.size_y * scale_y if data.shape in ("RECTANGLE", "ELLIPSE") else None
+        return AreaLight(obj.name, position, direction, data.energy, data.shape, data.size * scale_x, size_y,
+                         tuple(matrix[:3, 0]), color)
+    return PointLight(obj.name, position, data.energy, color, data.shadow_soft_size)
+
+
+def _world(scene, warnings: list[str]) -> World:
+    world = scene.world
+    if world is None:
+        return World()
+    tree = world.node_tree if getattr(world, "use_nodes", True) else None
+    if tree is None:
+        return World(tuple(world.color))
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output]
+    if not outputs or not outputs[0].inputs["Surface"].is_linked:
+        return World()
+    background = outputs[0].inputs["Surface"].links[0].from_node
+    if background.type != "BACKGROUND":
+        warnings.append(f"World '{world.name}': the '{background.name}' node is not read; no world light.")
+        return World()
+    colour = background.inputs["Color"]
+    if colour.is_linked:
+        warnings.append(f"World '{world.name}': a texture drives the background colour; using the socket's own "
+                        "colour.")
+    strength = background.inputs["Strength"].default_value
+    return World(tuple(np.array(colour.default_value[:3]) * strength))

@@ -1,0 +1,153 @@
+"""Operators: Bake (a worker thread with progress and Esc when invoked from the UI; synchronous in execute()),
+Cancel, and the viewport preview of the baked light."""
+from __future__ import annotations
+
+import threading
+
+import bpy
+
+from . import job as bake_job
+
+# The one interactive bake at a time; the worker thread writes only plain Python values here.
+STATUS = {"running": False, "fraction": 0.0, "message": "", "cancel": False, "error": None, "summary": ""}
+
+
+def _user_args(context):
+    settings = context.scene.radiosity
+    return settings.user_settings(), settings.attribute_name, settings.create_radiosity_mesh
+
+
+def _summary(report: dict) -> str:
+    return (f"Baked {len(report['objects'])} object(s): {report['elements']} elements, residual "
+            f"{report['residual']:.4f}, {report['seconds']:.1f} s")
+
+
+def _errors():
+    from ..core import SceneError
+    return (SceneError,)
+
+
+class RADIOSITY_OT_bake(bpy.types.Operator):
+    """Solve diffuse light by radiosity and bake it into a colour attribute of every baked mesh"""
+
+    bl_idname = "radiosity.bake"
+    bl_label = "Bake Radiosity"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return not STATUS["running"] and context.scene is not None
+
+    def execute(self, context):
+        try:
+            job = bake_job.prepare(context, *_user_args(context))
+            bake_job.solve(job, lambda fraction, message: None, lambda: False)
+            report = bake_job.apply(job)
+        except _errors() as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        for warning in report["warnings"]:
+            self.report({"WARNING"}, warning)
+        STATUS["summary"] = _summary(report)
+        self.report({"INFO"}, STATUS["summary"])
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        try:
+            self._job = bake_job.prepare(context, *_user_args(context))
+        except _errors() as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        STATUS.update(running=True, fraction=0.0, message="Starting", cancel=False, error=None)
+        self._thread = threading.Thread(target=self._work, daemon=True)
+        self._thread.start()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.25, window=context.window)
+        wm.progress_begin(0.0, 1.0)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _work(self):
+        def progress(fraction, message):
+            STATUS["fraction"], STATUS["message"] = fraction, message
+        try:
+            bake_job.solve(self._job, progress, lambda: STATUS["cancel"])
+        except Exception as error:  # reported in the main thread by modal()
+            STATUS["error"] = error
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            STATUS["cancel"] = True
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        context.window_manager.progress_update(STATUS["fraction"])
+        for area in context.screen.areas if context.screen else []:
+            area.tag_redraw()
+        if self._thread.is_alive():
+            return {"RUNNING_MODAL"}
+        return self._finish(context)
+
+    def _finish(self, context):
+        from ..core import BakeCancelled
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        STATUS["running"] = False
+        error = STATUS["error"]
+        if isinstance(error, BakeCancelled):
+            STATUS["summary"] = "Bake cancelled; nothing was changed."
+            self.report({"WARNING"}, STATUS["summary"])
+            return {"CANCELLED"}
+        if error is not None:
+            STATUS["summary"] = f"Bake failed: {error}"
+            self.report({"ERROR"}, STATUS["summary"])
+            return {"CANCELLED"}
+        report = bake_job.apply(self._job)
+        for warning in report["warnings"]:
+            self.report({"WARNING"}, warning)
+        STATUS["summary"] = _summary(report)
+        self.report({"INFO"}, STATUS["summary"])
+        return {"FINISHED"}
+
+
+class RADIOSITY_OT_cancel(bpy.types.Operator):
+    """Stop the running radiosity bake; the file stays as it was"""
+
+    bl_idname = "radiosity.cancel"
+    bl_label = "Cancel Bake"
+
+    @classmethod
+    def poll(cls, context):
+        return STATUS["running"]
+
+    def execute(self, context):
+        STATUS["cancel"] = True
+        return {"FINISHED"}
+
+
+class RADIOSITY_OT_preview(bpy.types.Operator):
+    """Show the baked colour attribute in the viewport (Solid shading, Attribute colour), or restore the
+    previous shading"""
+
+    bl_idname = "radiosity.preview"
+    bl_label = "Preview Baked Light"
+
+    _saved: dict = {}
+
+    def execute(self, context):
+        spaces = [space for area in context.screen.areas if area.type == "VIEW_3D"
+                  for space in area.spaces if space.type == "VIEW_3D"] if context.screen else []
+        if RADIOSITY_OT_preview._saved:
+            for space in spaces:
+                saved = RADIOSITY_OT_preview._saved.get(space.as_pointer())
+                if saved:
+                    space.shading.type, space.shading.color_type = saved
+            RADIOSITY_OT_preview._saved = {}
+            return {"FINISHED"}
+        for space in spaces:
+            RADIOSITY_OT_preview._saved[space.as_pointer()] = (space.shading.type, space.shading.color_type)
+            space.shading.type, space.shading.color_type = "SOLID", "ATTRIBUTE"
+        return {"FINISHED"}
+
+
+classes = (RADIOSITY_OT_bake, RADIOSITY_OT_cancel, RADIOSITY_OT_preview)

@@ -1,0 +1,55 @@
+"""Panels: Render properties > Radiosity (settings, Bake / Cancel, progress) and Object properties > Radiosity."""
+from __future__ import annotations
+
+import bpy
+
+from .operators import STATUS
+
+
+class RENDER_PT_radiosity(bpy.types.Panel):
+    bl_label = "Radiosity"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+
+    def draw(self, context):
+        settings = context.scene.radiosity
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(settings, "quality")
+        column = layout.column()
+        column.enabled = settings.quality == "CUSTOM"
+        for name in ("element_size", "patch_size", "adaptive_passes", "residual", "light_samples"):
+            column.prop(settings, name)
+        layout.prop(settings, "form_factors")
+        layout.prop(settings, "attribute_name")
+        layout.prop(settings, "create_radiosity_mesh")
+        if STATUS["running"]:
+            if hasattr(layout, "progress"):
+                layout.progress(factor=STATUS["fraction"], type="BAR", text=STATUS["message"])
+            else:
+                layout.label(text=f"{STATUS['message']} ({STATUS['fraction']:.0%})")
+            layout.operator("radiosity.cancel", icon="CANCEL")
+        else:
+            layout.operator("radiosity.bake", icon="RENDER_STILL")
+            layout.operator("radiosity.preview", icon="HIDE_OFF")
+        if STATUS["summary"]:
+            layout.label(text=STATUS["summary"])
+
+
+class OBJECT_PT_radiosity(bpy.types.Panel):
+    bl_label = "Radiosity"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "object"
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type in {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+
+    def draw(self, context):
+        self.layout.use_property_split = True
+        self.layout.prop(context.object.radiosity, "mode")
+
+
+classes = (RENDER_PT_radiosity, OBJECT_PT_radiosity)

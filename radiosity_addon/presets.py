@@ -1,0 +1,41 @@
+"""Quality presets and the mapping from user settings to core.BakeSettings (no bpy: testable anywhere)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+# name: (elements across the scene's diagonal, patches across it, adaptive passes, residual threshold,
+#        light samples per edge). Sizes follow the scene, so a 0.5 m model and a 50 m level bake alike; the work
+#        grows with elements x patches, so the patch count grows slowly.
+PRESETS = {
+    "DRAFT": (16, 8, 0, 0.05, 2),
+    "MEDIUM": (40, 10, 1, 0.01, 4),
+    "HIGH": (80, 12, 2, 0.002, 6),
+}
+
+
+@dataclass(frozen=True)
+class UserSettings:
+    """What the panel and the command line let a user choose; ``quality`` CUSTOM uses the explicit fields."""
+
+    quality: str = "MEDIUM"
+    element_size_m: float = 0.25
+    patch_size_m: float = 1.0
+    adaptive_passes: int = 1
+    residual_threshold: float = 0.01
+    light_samples_per_edge: int = 4
+    form_factors: str = "raycast"
+    seed: int = 0
+
+
+def bake_settings(user: UserSettings, scene_size_m: float):
+    """core.BakeSettings for the user's choice: a preset scaled to the scene's diagonal, or the CUSTOM values."""
+    from ..core import BakeSettings
+    if user.quality in PRESETS:
+        across, patches_across, passes, residual, samples = PRESETS[user.quality]
+        element, patch = scene_size_m / across, scene_size_m / patches_across
+    else:
+        element, patch, passes, residual, samples = (user.element_size_m, user.patch_size_m, user.adaptive_passes,
+                                                     user.residual_threshold, user.light_samples_per_edge)
+    return BakeSettings(element_size_m=element, patch_size_m=max(patch, element), adaptive_passes=passes,
+                        residual_threshold=residual, light_samples_per_edge=samples, form_factors=user.form_factors,
+                        min_element_size_m=element / 8, seed=user.seed)

@@ -1,0 +1,124 @@
+"""Write a solution back into the .blend: colour attributes on the original meshes and the radiosity mesh object.
+
+Only what this add-on made is ever replaced: a mesh remembers the name of the attribute we wrote
+(``mesh["radiosity_attribute"]``) and the radiosity mesh object carries ``obj["radiosity_mesh"]``. Existing UV maps,
+materials and other colour attributes are never touched. Everything runs in the main thread, after the solve, so a
+failed or cancelled bake has changed nothing.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ..core import SceneError
+from ..core.raycast import RayCaster
+from .export import Export, ExportedObject
+
+OWNED_ATTRIBUTE = "radiosity_attribute"
+RADIOSITY_MESH_TAG = "radiosity_mesh"
+
+
+def check_attribute_name_free(export: Export, name: str) -> None:
+    """Refuse, before any work, to overwrite a colour attribute the user made with the same name."""
+    for item in export.objects:
+        mesh = bpy.data.meshes.get(item.mesh_name) if item.writable else None
+        if mesh is not None and name in mesh.color_attributes and mesh.get(OWNED_ATTRIBUTE) != name:
+            raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a colour attribute '{name}' "
+                             "that this add-on did not make; choose another attribute name.")
+
+
+def write_vertex_colors(export: Export, solution, attribute: str) -> tuple[list[dict], list[str]]:
+    """Write the light at every loop of every baked mesh; returns per-object report entries and warnings."""
+    kept = np.full(len(export.scene.triangle_source) + export.scene.dropped_triangles, -1)
+    kept[export.scene.triangle_source] = np.arange(len(export.scene.triangle_source))
+    written, outputs, warnings = {}, [], []
+    for item in export.objects:
+        if not item.writable:
+            continue
+        obj, mesh = bpy.data.objects[item.name], bpy.data.meshes[item.mesh_name]
+        if mesh.name in written:
+            warnings.append(f"Object '{item.name}' shares mesh '{mesh.name}' with '{written[mesh.name]}': its colour "
+                            "attribute holds the light of the first of them.")
+            continue
+        light = loop_light(item, solution, kept, obj)
+        _write_attribute(mesh, attribute, light)
+        written[mesh.name] = item.name
+        outputs.append({"name": item.name, "color_attribute": attribute, "uv_map": None, "image": None,
+                        "resolution": None})
+    return outputs, warnings
+
+
+def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj) -> np.ndarray:
+    """(loops, 3) light per loop of the original mesh."""
+    triangles = kept[item.first_triangle + np.arange(item.triangle_count)]
+    if item.same_topology:
+        valid = triangles >= 0
+        corner_bary = np.tile(np.eye(3), (int(valid.sum()), 1))
+        values = solution.evaluate(np.repeat(triangles[valid], 3), corner_bary)
+        light = np.zeros((len(obj.data.loops), 3))
+        light[item.corner_loops[valid].ravel()] = values
+        return np.nan_to_num(light)
+    return _projected_light(item, solution, triangles, obj)
+
+
+def _projected_light(item, solution, triangles, obj) -> np.ndarray:
+    """Light for meshes whose modifiers changed the topology: each original corner looks along its normal
+    (both ways) for the nearest point of the object's baked surface."""
+    valid = triangles[triangles >= 0]
+    caster = RayCaster(solution.scene.triangles[valid], threads=1)
+    mesh = obj.data
+    matrix = np.array(obj.matrix_world)
+    count = len(mesh.loops)
+    vertex = np.empty(count, dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", vertex)
+    positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", positions)
+    normals = np.empty(count * 3, dtype=np.float32)
+    mesh.corner_normals.foreach_get("vector", normals) if hasattr(mesh, "corner_normals") else \
+        mesh.loops.foreach_get("normal", normals)
+    points = positions.reshape(-1, 3)[vertex] @ matrix[:3, :3].T + matrix[:3, 3]
+    normal = normals.reshape(-1, 3) @ np.linalg.inv(matrix[:3, :3])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+    reach = 0.05 * solution.scene.size_m
+    best = np.full(count, np.inf)
+    light = np.zeros((count, 3))
+    for sign in (1.0, -1.0):
+        start = points + sign * reach * normal
+        hit, bary = caster.first_hit(start, -sign * normal)
+        found = np.flatnonzero(hit >= 0)
+        hit_points = np.einsum("mc,mck->mk", bary[found], solution.scene.triangles[valid[hit[found]]])
+        distance = np.linalg.norm(hit_points - points[found], axis=1)
+        nearer = distance < best[found]
+        closer = found[nearer]
+        best[closer] = distance[nearer]
+        light[closer] = solution.evaluate(valid[hit[closer]], bary[closer])
+    caster.close()
+    return np.nan_to_num(light)
+
+
+def _write_attribute(mesh, name: str, light: np.ndarray) -> None:
+    existing = mesh.color_attributes.get(name)
+    if existing is not None:
+        mesh.color_attributes.remove(existing)
+    attribute = mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER")
+    rgba = np.concatenate([light, np.ones((len(light), 1))], axis=1).astype(np.float32)
+    attribute.data.foreach_set("color", rgba.ravel())
+    mesh[OWNED_ATTRIBUTE] = name
+
+
+def write_radiosity_mesh(solution, attribute: str, name: str = "Radiosity Mesh"):
+    """A new object holding the adaptive element mesh with its light as a corner colour attribute; replaces the
+    one a previous bake made."""
+    for obj in [o for o in bpy.data.objects if o.get(RADIOSITY_MESH_TAG)]:
+        mesh = obj.data
+        bpy.data.objects.remove(obj)
+        if mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+    vertices, triangles, corner_light = solution.radiosity_mesh()
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices.tolist(), [], triangles.tolist())
+    _write_attribute(mesh, attribute, corner_light.reshape(-1, 3))
+    obj = bpy.data.objects.new(name, mesh)
+    obj[RADIOSITY_MESH_TAG] = True
+    bpy.context.scene.collection.objects.link(obj)
+    return obj

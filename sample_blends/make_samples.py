@@ -1,0 +1,107 @@
+"""Make the sample scenes: ``python sample_blends/make_samples.py [OUT_DIR]`` with the bpy module.
+
+cornell_box.blend: the Cornell box from the graphics.cornell.edu data (mm -> m), reflectances and light radiance as
+in Mitsuba 3 (docs/references in the README), the light as an emissive mesh (Emission Strength = radiance).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import bpy
+
+MM = 0.001
+WHITE = (0.885809, 0.698859, 0.666422)
+GREEN = (0.105421, 0.37798, 0.076425)
+RED = (0.570068, 0.0430135, 0.0443706)
+LIGHT_RADIANCE = (18.387, 13.9873, 6.75357)
+
+# Quads in mm, Cornell box coordinates (y up), as the Cornell data lists them (normals into the box).
+CORNELL = {
+    "floor": ([(552.8, 0, 0), (0, 0, 0), (0, 0, 559.2), (549.6, 0, 559.2)], "white"),
+    "ceiling": ([(556, 548.8, 0), (556, 548.8, 559.2), (0, 548.8, 559.2), (0, 548.8, 0)], "white"),
+    "back wall": ([(549.6, 0, 559.2), (0, 0, 559.2), (0, 548.8, 559.2), (556, 548.8, 559.2)], "white"),
+    "right wall": ([(0, 0, 559.2), (0, 0, 0), (0, 548.8, 0), (0, 548.8, 559.2)], "green"),
+    "left wall": ([(552.8, 0, 0), (549.6, 0, 559.2), (556, 548.8, 559.2), (556, 548.8, 0)], "red"),
+    "light": ([(343, 548.3, 227), (343, 548.3, 332), (213, 548.3, 332), (213, 548.3, 227)], "light"),
+}
+SHORT_BLOCK_TOP = [(130, 165, 65), (82, 165, 225), (240, 165, 272), (290, 165, 114)]
+TALL_BLOCK_TOP = [(423, 330, 247), (265, 330, 296), (314, 330, 456), (472, 330, 406)]
+
+
+def to_blender(point):
+    """Cornell (x, y up, z depth) in mm -> Blender (x, y depth, z up) in m."""
+    x, y, z = point
+    return (x * MM, z * MM, y * MM)
+
+
+def material(name, colour, emission=None):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
+    bsdf.inputs["Roughness"].default_value = 1.0
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    if emission:
+        peak = max(emission)
+        bsdf.inputs["Emission Color"].default_value = (*(c / peak for c in emission), 1.0)
+        bsdf.inputs["Emission Strength"].default_value = peak
+    mat.diffuse_color = (*colour, 1.0)
+    return mat
+
+
+def mesh_object(name, quads, mat):
+    # (x, y, z) -> (x, z, y) is a mirror: reversing each quad keeps the normals pointing where they did
+    vertices = [to_blender(p) for quad in quads for p in reversed(quad)]
+    faces = [tuple(range(4 * i, 4 * i + 4)) for i in range(len(quads))]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices, [], faces)
+    mesh.materials.append(mat)
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def block(top):
+    """Four side quads and the top of a block standing on the floor (outward normals)."""
+    bottom = [(x, 0.0, z) for x, _, z in top]
+    sides = [[bottom[i], bottom[(i + 1) % 4], top[(i + 1) % 4], top[i]] for i in range(4)]
+    return [top[::-1]] + sides
+
+
+def cornell_box(path: Path) -> None:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    mats = {"white": material("white", WHITE), "green": material("green", GREEN), "red": material("red", RED),
+            "light": material("light", (0.0, 0.0, 0.0), LIGHT_RADIANCE)}
+    for name, (quad, mat) in CORNELL.items():
+        mesh_object(name, [quad], mats[mat])
+    for name, top in (("short block", SHORT_BLOCK_TOP), ("tall block", TALL_BLOCK_TOP)):
+        quads = block(top)
+        # the Cornell data lists tops counter-clockwise from above; make every side face outwards
+        mesh = mesh_object(name, quads, mats["white"]).data
+        mesh.update()
+        centre = sum((v.co for v in mesh.vertices), start=mesh.vertices[0].co * 0) / len(mesh.vertices)
+        if any((p.center - centre).dot(p.normal) < 0 for p in mesh.polygons):
+            for p in mesh.polygons:
+                if (p.center - centre).dot(p.normal) < 0:
+                    p.flip()
+    camera_data = bpy.data.cameras.new("Camera")
+    camera_data.lens = 35
+    camera = bpy.data.objects.new("Camera", camera_data)
+    camera.location = (0.278, -0.8, 0.273)
+    camera.rotation_euler = (1.5708, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.world = bpy.data.worlds.new("Black")
+    scene.world.color = (0.0, 0.0, 0.0)
+    scene.render.resolution_x = scene.render.resolution_y = 256
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
+
+
+if __name__ == "__main__":
+    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).resolve().parent
+    out.mkdir(parents=True, exist_ok=True)
+    cornell_box(out / "cornell_box.blend")
+    print(f"wrote {out / 'cornell_box.blend'}")
