@@ -2,6 +2,7 @@
 
 Closed forms (unoccluded), each multiplied by the visible share found with stratified shadow rays:
 - point / spot: E = I cos(theta) / r^2 with I = P / (4 pi) (Blender's convention; spot x cone mask);
+  with Blender's soft falloff a light of radius R gives I cos(theta) / (r^2 + R^2) (measured against Cycles);
 - sun: E = S cos(theta);
 - area: E = pi L F(point -> light polygon), L = P / (pi A), F by Lambert's contour formula;
 - world: E = pi L_world x (share of cosine-weighted directions that escape the scene).
@@ -83,7 +84,8 @@ def _point_like(light, caster, points, normals, offset_m, samples_per_edge, seed
     distance = np.linalg.norm(to_light, axis=1)
     direction = to_light / np.maximum(distance, 1e-300)[:, None]
     cosine = np.maximum(np.einsum("mk,mk->m", direction, normals), 0.0)
-    irradiance = light.power_w / (4 * np.pi) * cosine / np.maximum(distance, 1e-300) ** 2
+    squared = distance ** 2 + (light.radius_m ** 2 if light.soft_falloff else 0.0)
+    irradiance = light.power_w / (4 * np.pi) * cosine / np.maximum(squared, 1e-300)
     if isinstance(light, SpotLight):
         axis = np.asarray(light.direction, dtype=np.float64) / np.linalg.norm(light.direction)
         irradiance *= spot_mask(-direction @ axis, light.spot_size_rad, light.spot_blend)

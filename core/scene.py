@@ -34,13 +34,18 @@ class Material:
 
 @dataclass(frozen=True)
 class PointLight:
-    """Blender point light: ``power_w`` (W) per channel via ``color``; ``radius_m`` softens shadows."""
+    """Blender point light: ``power_w`` (W) per channel via ``color``; ``radius_m`` softens shadows.
+
+    ``soft_falloff`` (Blender 4.0+, on by default) makes a sized light fall off as a disk facing the receiver,
+    I cos(theta) / (r^2 + radius^2), instead of I cos(theta) / r^2.
+    """
 
     name: str
     position: tuple[float, float, float]
     power_w: float
     color: RGB = (1.0, 1.0, 1.0)
     radius_m: float = 0.0
+    soft_falloff: bool = True
 
 
 @dataclass(frozen=True)
@@ -58,6 +63,7 @@ class SpotLight:
     spot_blend: float = 0.15
     color: RGB = (1.0, 1.0, 1.0)
     radius_m: float = 0.0
+    soft_falloff: bool = True
 
 
 @dataclass(frozen=True)

@@ -76,12 +76,30 @@ def export_scene(context) -> Export:
         material_index.append(slots)
         casts_only.append(np.full(len(world_triangles), mode == "SHADOW_ONLY"))
         object_index.append(np.full(len(world_triangles), len(names) - 1))
+    _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials.list)
     stack = lambda parts, shape, dtype: np.concatenate(parts) if parts else np.zeros(shape, dtype)
     scene = Scene(stack(triangles, (0, 3, 3), float), stack(material_index, 0, int), materials.list or
                   [DEFAULT_MATERIAL], lights=lights, world=_world(context.scene, materials.warnings),
                   object_index=stack(object_index, 0, int), object_names=names,
                   casts_only=stack(casts_only, 0, bool))
     return Export(scene, objects, materials.warnings)
+
+
+def _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials) -> None:
+    """Cycles' mesh lights emit from both faces: append a flipped copy of every emissive triangle (after all
+    objects' ranges, as one extra unwritable part) so the back face shoots too."""
+    if not triangles:
+        return
+    emissive = np.array([max(m.emitted_radiance) > 0 for m in materials] or [False])
+    all_triangles, all_materials = np.concatenate(triangles), np.concatenate(material_index)
+    back = emissive[all_materials] & ~np.concatenate(casts_only)
+    if not back.any():
+        return
+    names.append("(back faces of emitters)")
+    triangles.append(all_triangles[back][:, ::-1])
+    material_index.append(all_materials[back])
+    casts_only.append(np.zeros(int(back.sum()), dtype=bool))
+    object_index.append(np.full(int(back.sum()), len(names) - 1))
 
 
 def _mode(obj) -> str:
@@ -207,15 +225,16 @@ def _light(obj, matrix: np.ndarray):
     color = tuple(data.color)
     if data.type == "SUN":
         return SunLight(obj.name, direction, data.energy, color, data.angle)
+    soft = bool(getattr(data, "use_soft_falloff", False))
     if data.type == "SPOT":
         return SpotLight(obj.name, position, direction, data.energy, data.spot_size, data.spot_blend, color,
-                         data.shadow_soft_size)
+                         data.shadow_soft_size, soft)
     if data.type == "AREA":
         scale_x, scale_y = np.linalg.norm(matrix[:3, 0]), np.linalg.norm(matrix[:3, 1])
         size_y = data.size_y * scale_y if data.shape in ("RECTANGLE", "ELLIPSE") else None
         return AreaLight(obj.name, position, direction, data.energy, data.shape, data.size * scale_x, size_y,
                          tuple(matrix[:3, 0]), color)
-    return PointLight(obj.name, position, data.energy, color, data.shadow_soft_size)
+    return PointLight(obj.name, position, data.energy, color, data.shadow_soft_size, soft)
 
 
 def _world(scene, warnings: list[str]) -> World:

@@ -7,10 +7,11 @@ from dataclasses import dataclass
 #        light samples per edge). Sizes follow the scene, so a 0.5 m model and a 50 m level bake alike; the work
 #        grows with elements x patches, so the patch count grows slowly.
 PRESETS = {
-    "DRAFT": (16, 8, 0, 0.05, 2),
-    "MEDIUM": (40, 10, 1, 0.01, 4),
-    "HIGH": (80, 12, 2, 0.002, 6),
+    "DRAFT": (16, 6, 0, 0.05, 2),
+    "MEDIUM": (32, 8, 1, 0.01, 4),
+    "HIGH": (64, 10, 2, 0.002, 6),
 }
+ADAPTIVE_THRESHOLD = 0.3
 
 
 @dataclass(frozen=True)
@@ -38,4 +39,4 @@ def bake_settings(user: UserSettings, scene_size_m: float):
                                                      user.residual_threshold, user.light_samples_per_edge)
     return BakeSettings(element_size_m=element, patch_size_m=max(patch, element), adaptive_passes=passes,
                         residual_threshold=residual, light_samples_per_edge=samples, form_factors=user.form_factors,
-                        min_element_size_m=element / 8, seed=user.seed)
+                        adaptive_threshold=ADAPTIVE_THRESHOLD, min_element_size_m=element / 4, seed=user.seed)

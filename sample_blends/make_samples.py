@@ -1,7 +1,8 @@
 """Make the sample scenes: ``python sample_blends/make_samples.py [OUT_DIR]`` with the bpy module.
 
 cornell_box.blend: the Cornell box from the graphics.cornell.edu data (mm -> m), reflectances and light radiance as
-in Mitsuba 3 (docs/references in the README), the light as an emissive mesh (Emission Strength = radiance).
+in Mitsuba 3 (docs/references in the README), the light as an emissive mesh (Emission Strength = radiance). Walls
+are 16 x 16 grids and block faces 8 x 8, so that vertex colours have vertices to live on.
 """
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import sys
 from pathlib import Path
 
 import bpy
+import numpy as np
 
 MM = 0.001
 WHITE = (0.885809, 0.698859, 0.666422)
@@ -50,10 +52,24 @@ def material(name, colour, emission=None):
     return mat
 
 
-def mesh_object(name, quads, mat):
-    # (x, y, z) -> (x, z, y) is a mirror: reversing each quad keeps the normals pointing where they did
-    vertices = [to_blender(p) for quad in quads for p in reversed(quad)]
-    faces = [tuple(range(4 * i, 4 * i + 4)) for i in range(len(quads))]
+def grid(quad, cuts):
+    """Vertices and faces of a planar quad cut into cuts x cuts quads (bilinear between its corners)."""
+    a, b, c, d = (np.array(to_blender(p)) for p in reversed(quad))  # the axis swap mirrors: keep normals
+    t = np.linspace(0.0, 1.0, cuts + 1)
+    u, v = np.meshgrid(t, t, indexing="ij")
+    points = ((1 - u) * (1 - v))[..., None] * a + (u * (1 - v))[..., None] * b + (u * v)[..., None] * c + \
+        ((1 - u) * v)[..., None] * d
+    index = np.arange((cuts + 1) ** 2).reshape(cuts + 1, cuts + 1)
+    faces = np.stack([index[:-1, :-1], index[1:, :-1], index[1:, 1:], index[:-1, 1:]], -1).reshape(-1, 4)
+    return points.reshape(-1, 3), faces
+
+
+def mesh_object(name, quads, mat, cuts=1):
+    vertices, faces = [], []
+    for quad in quads:
+        points, quad_faces = grid(quad, cuts)
+        faces += (quad_faces + len(vertices)).tolist()
+        vertices += points.tolist()
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata(vertices, [], faces)
     mesh.materials.append(mat)
@@ -76,11 +92,11 @@ def cornell_box(path: Path) -> None:
     mats = {"white": material("white", WHITE), "green": material("green", GREEN), "red": material("red", RED),
             "light": material("light", (0.0, 0.0, 0.0), LIGHT_RADIANCE)}
     for name, (quad, mat) in CORNELL.items():
-        mesh_object(name, [quad], mats[mat])
+        mesh_object(name, [quad], mats[mat], cuts=1 if name == "light" else 16)
     for name, top in (("short block", SHORT_BLOCK_TOP), ("tall block", TALL_BLOCK_TOP)):
         quads = block(top)
         # the Cornell data lists tops counter-clockwise from above; make every side face outwards
-        mesh = mesh_object(name, quads, mats["white"]).data
+        mesh = mesh_object(name, quads, mats["white"], cuts=8).data
         mesh.update()
         centre = sum((v.co for v in mesh.vertices), start=mesh.vertices[0].co * 0) / len(mesh.vertices)
         if any((p.center - centre).dot(p.normal) < 0 for p in mesh.polygons):

@@ -31,13 +31,23 @@ FLOOR_POINTS = np.array([[0.0, 0.0, 0.0], [1.0, 0.5, 0.0], [-2.0, 3.0, 0.0]])
 @pytest.mark.parametrize("radius", [0.0, 0.1])
 def test_point_light_inverse_square_cosine(radius):
     """E = P cos(theta) / (4 pi r^2); 100 W at 1 m gives 7.958 W/m^2 (Cycles bakes 2.533 = E / pi)."""
-    light = PointLight("bulb", (0.0, 0.0, 1.0), power_w=100.0, color=(1.0, 0.5, 0.25), radius_m=radius)
+    light = PointLight("bulb", (0.0, 0.0, 1.0), power_w=100.0, color=(1.0, 0.5, 0.25), radius_m=radius,
+                       soft_falloff=False)
     measured = irradiance_at(plane_scene([light]), FLOOR_POINTS)
     offset = np.array(light.position) - FLOOR_POINTS
     r = np.linalg.norm(offset, axis=1)
     expected = 100.0 * (offset[:, 2] / r) / (4 * np.pi * r ** 2)
     assert measured == pytest.approx(expected[:, None] * [1.0, 0.5, 0.25], rel=1e-9)
     assert measured[0, 0] / np.pi == pytest.approx(2.533, abs=1e-3)
+
+
+def test_soft_falloff_of_a_sized_point_light():
+    """Blender's soft falloff: E = I cos(theta) / (r^2 + R^2)."""
+    light = PointLight("bulb", (0.0, 0.0, 1.0), power_w=100.0, radius_m=0.25)
+    measured = irradiance_at(plane_scene([light]), FLOOR_POINTS)[:, 0]
+    offset = np.array(light.position) - FLOOR_POINTS
+    r = np.linalg.norm(offset, axis=1)
+    assert measured == pytest.approx(100.0 * (offset[:, 2] / r) / (4 * np.pi * (r ** 2 + 0.25 ** 2)), rel=1e-9)
 
 
 def test_point_light_shadow():

@@ -1,0 +1,24 @@
+"""Add-on tests run on the bpy module: the extension is registered once, and each test starts from factory
+settings with an empty scene."""
+import pytest
+
+bpy = pytest.importorskip("bpy", reason="the bpy module is installed by scripts/test.sh")
+
+from blender_setup import load_extension  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def extension():
+    package = load_extension()
+    package.register()
+    yield package
+    package.unregister()
+
+
+@pytest.fixture
+def empty_scene(extension):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.world = bpy.data.worlds.new("Black")
+    scene.world.color = (0.0, 0.0, 0.0)
+    return scene
