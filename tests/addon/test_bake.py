@@ -1,0 +1,90 @@
+"""Baking inside Blender: evaluated geometry (modifiers, instances), a cancelled bake, and what a bake may change."""
+import bpy
+import numpy as np
+import pytest
+
+from blender_setup import add_light, corner_colors, grid_plane
+
+
+def scene_state():
+    """Everything a bake must not change unless it finishes: attributes, UV maps, materials per mesh."""
+    return {mesh.name: (sorted(a.name for a in mesh.color_attributes), sorted(uv.name for uv in mesh.uv_layers),
+                        [m.name for m in mesh.materials], len(mesh.loops)) for mesh in bpy.data.meshes}
+
+
+def test_cancelled_bake_changes_nothing(empty_scene, extension):
+    floor = grid_plane("Floor", 2.0, 8)
+    floor.data.color_attributes.new("Paint", "BYTE_COLOR", "CORNER")
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    before = scene_state()
+    job_module = extension.radiosity_addon.job
+    from radiosity_baker.core import BakeCancelled
+    settings = bpy.context.scene.radiosity
+    job = job_module.prepare(bpy.context, settings.user_settings(), settings.attribute_name, False)
+    calls = []
+    with pytest.raises(BakeCancelled):
+        job_module.solve(job, lambda f, m: None, lambda: calls.append(1) or len(calls) > 2)
+    assert scene_state() == before
+
+
+def test_rebake_replaces_only_our_attribute(empty_scene):
+    floor = grid_plane("Floor", 2.0, 4)
+    floor.data.color_attributes.new("Paint", "BYTE_COLOR", "CORNER")
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    empty_scene.radiosity.quality = "DRAFT"
+    uv_maps = [uv.name for uv in floor.data.uv_layers]
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    assert sorted(a.name for a in floor.data.color_attributes) == ["Paint", "Radiosity"]
+    assert [uv.name for uv in floor.data.uv_layers] == uv_maps == ["UVMap"]
+
+
+def test_user_attribute_with_our_name_is_refused(empty_scene):
+    floor = grid_plane("Floor", 2.0, 4)
+    floor.data.color_attributes.new("Radiosity", "BYTE_COLOR", "CORNER")
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    with pytest.raises(RuntimeError, match="did not make"):
+        bpy.ops.radiosity.bake()
+
+
+def test_modifiers_are_baked_on_the_evaluated_geometry(empty_scene):
+    """A Solidify modifier gives the plane thickness: the bake sees the evaluated mesh, and the original mesh
+    (fewer loops) still gets a value for every loop, lit from above."""
+    floor = grid_plane("Floor", 2.0, 8)
+    modifier = floor.modifiers.new("Thick", "SOLIDIFY")
+    modifier.thickness = 0.1
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    empty_scene.radiosity.quality = "DRAFT"
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    light = corner_colors(floor.data, "Radiosity")
+    assert len(light) == len(floor.data.loops)
+    top = 100 / (4 * np.pi * 1.5 ** 2) / np.pi  # under the lamp, on the top face at z = 0
+    assert light.max() == pytest.approx(top, rel=0.1)
+
+
+def test_collection_instance_casts_shadow_and_receives_light(empty_scene):
+    """A collection instance of a block is part of the baked scene: it shadows the floor under it, and the
+    radiosity mesh holds lit elements on it."""
+    floor = grid_plane("Floor", 4.0, 16)
+    bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0, 0, 0.0))
+    block = bpy.context.active_object
+    collection = bpy.data.collections.new("Block")
+    collection.objects.link(block)
+    empty_scene.collection.objects.unlink(block)
+    instance = bpy.data.objects.new("Block instance", None)
+    instance.instance_type, instance.instance_collection = "COLLECTION", collection
+    instance.location = (0.0, 0.0, 0.5)
+    empty_scene.collection.objects.link(instance)
+    add_light("POINT", (0, 0, 2.0), 200.0)
+    settings = empty_scene.radiosity
+    settings.quality, settings.create_radiosity_mesh = "DRAFT", True
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    positions = np.array([v.co for v in floor.data.vertices])
+    loops = np.array([loop.vertex_index for loop in floor.data.loops])
+    light = corner_colors(floor.data, "Radiosity")[:, 0]
+    under = np.linalg.norm(positions[loops][:, :2], axis=1) < 0.1
+    assert light[under].max() < 0.1 * light.max()
+    mesh = next(o for o in bpy.data.objects if o.get("radiosity_mesh")).data
+    corners = np.array([mesh.vertices[loop.vertex_index].co for loop in mesh.loops])
+    on_block_top = np.abs(corners[:, 2] - 0.75) < 1e-4
+    assert on_block_top.any() and corner_colors(mesh, "Radiosity")[on_block_top].min() > 0

@@ -1,0 +1,78 @@
+"""The command line contract: success writes OUT.blend and REPORT.json; each bad input exits non-zero with a
+one-line reason on stderr."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import bpy
+import pytest
+
+from blender_setup import ROOT, add_light, corner_colors, grid_plane
+
+
+def run_cli(*args):
+    result = subprocess.run([sys.executable, "-m", "radiosity_addon", "bake", *map(str, args)], cwd=ROOT,
+                            capture_output=True, text=True, timeout=600)
+    return result.returncode, result.stderr
+
+
+def save_scene(path: Path, with_light=True, with_mesh=True):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    if with_mesh:
+        grid_plane("Floor", 2.0, 4)
+        grid_plane("Roof", 1.0, 2, location=(0, 0, 1.0))
+    if with_light:
+        add_light("POINT", (0.5, 0.5, 2.0), 100.0)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+@pytest.fixture
+def scene_file(tmp_path, extension):
+    return save_scene(tmp_path / "in.blend")
+
+
+def test_success_writes_blend_and_report(scene_file, tmp_path):
+    code, stderr = run_cli(scene_file, "-o", tmp_path / "out.blend", "--report", tmp_path / "report.json",
+                           "--quality", "draft")
+    assert code == 0, stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert {o["name"] for o in report["objects"]} == {"Floor", "Roof"}
+    assert all(o["color_attribute"] == "Radiosity" for o in report["objects"])
+    assert report["elements"] > 0 and report["residual"] <= 0.05 and report["seconds"] > 0
+    assert "settings" in report and "[radiosity]" in stderr
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "out.blend"))
+    floor = bpy.data.objects["Floor"].data
+    assert len(floor.polygons) == 16  # original faces kept
+    assert corner_colors(floor, "Radiosity").max() > 0
+
+
+@pytest.mark.parametrize("case, code, message", [
+    ("missing", 3, "input file not found"),
+    ("unreadable", 3, "cannot read"),
+    ("no light", 4, "no light"),
+    ("nothing to bake", 4, "empty"),
+    ("unwritable", 5, "cannot write the output"),
+    ("bad argument", 2, "invalid choice"),
+])
+def test_bad_input_exits_non_zero_with_one_line(case, code, message, tmp_path, extension):
+    source, output, extra = tmp_path / "in.blend", tmp_path / "out.blend", []
+    if case == "unreadable":
+        source.write_text("this is not a blend file")
+    elif case == "no light":
+        save_scene(source, with_light=False)
+    elif case == "nothing to bake":
+        save_scene(source, with_mesh=False)
+    elif case in ("unwritable", "bad argument"):
+        save_scene(source)
+    if case == "unwritable":
+        output = tmp_path / "no such folder" / "out.blend"
+    if case == "bad argument":
+        extra = ["--quality", "ultra"]
+    returned, stderr = run_cli(source, "-o", output, *extra)
+    assert returned == code
+    reason = [line for line in stderr.splitlines() if line.startswith(("error:", "usage:")) or "error:" in line]
+    assert any(message in line for line in reason), stderr
+    assert not output.exists()
