@@ -2,7 +2,7 @@
 
 cornell_box.blend: the Cornell box from the graphics.cornell.edu data (mm -> m), reflectances and light radiance as
 in Mitsuba 3 (docs/references in the README), the light as an emissive mesh (Emission Strength = radiance). Walls
-are 16 x 16 grids and block faces 8 x 8, so that vertex colours have vertices to live on.
+are 10 x 10 grids and block faces 5 x 5, so that vertex colours have vertices to live on.
 """
 from __future__ import annotations
 
@@ -32,9 +32,10 @@ TALL_BLOCK_TOP = [(423, 330, 247), (265, 330, 296), (314, 330, 456), (472, 330, 
 
 
 def to_blender(point):
-    """Cornell (x, y up, z depth) in mm -> Blender (x, y depth, z up) in m."""
+    """Cornell (x, y up, z depth) in mm -> Blender (x, y depth, z up) in m. Cornell's x grows to the viewer's
+    left, so x is mirrored too: with the axis swap that makes a rotation, which keeps every face's winding."""
     x, y, z = point
-    return (x * MM, z * MM, y * MM)
+    return ((556.0 - x) * MM, z * MM, y * MM)
 
 
 def material(name, colour, emission=None):
@@ -54,7 +55,7 @@ def material(name, colour, emission=None):
 
 def grid(quad, cuts):
     """Vertices and faces of a planar quad cut into cuts x cuts quads (bilinear between its corners)."""
-    a, b, c, d = (np.array(to_blender(p)) for p in reversed(quad))  # the axis swap mirrors: keep normals
+    a, b, c, d = (np.array(to_blender(p)) for p in quad)
     t = np.linspace(0.0, 1.0, cuts + 1)
     u, v = np.meshgrid(t, t, indexing="ij")
     points = ((1 - u) * (1 - v))[..., None] * a + (u * (1 - v))[..., None] * b + (u * v)[..., None] * c + \
@@ -92,11 +93,11 @@ def cornell_box(path: Path) -> None:
     mats = {"white": material("white", WHITE), "green": material("green", GREEN), "red": material("red", RED),
             "light": material("light", (0.0, 0.0, 0.0), LIGHT_RADIANCE)}
     for name, (quad, mat) in CORNELL.items():
-        mesh_object(name, [quad], mats[mat], cuts=1 if name == "light" else 16)
+        mesh_object(name, [quad], mats[mat], cuts=1 if name == "light" else 10)
     for name, top in (("short block", SHORT_BLOCK_TOP), ("tall block", TALL_BLOCK_TOP)):
         quads = block(top)
         # the Cornell data lists tops counter-clockwise from above; make every side face outwards
-        mesh = mesh_object(name, quads, mats["white"], cuts=8).data
+        mesh = mesh_object(name, quads, mats["white"], cuts=5).data
         mesh.update()
         centre = sum((v.co for v in mesh.vertices), start=mesh.vertices[0].co * 0) / len(mesh.vertices)
         if any((p.center - centre).dot(p.normal) < 0 for p in mesh.polygons):
@@ -112,7 +113,10 @@ def cornell_box(path: Path) -> None:
     scene.camera = camera
     scene.world = bpy.data.worlds.new("Black")
     scene.world.color = (0.0, 0.0, 0.0)
+    if scene.world.node_tree is not None:  # Blender 5 worlds come with a grey Background node
+        scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     scene.render.resolution_x = scene.render.resolution_y = 256
+    bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backup
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
 
 

@@ -21,4 +21,6 @@ def empty_scene(extension):
     scene = bpy.context.scene
     scene.world = bpy.data.worlds.new("Black")
     scene.world.color = (0.0, 0.0, 0.0)
+    if scene.world.node_tree is not None:  # Blender 5 worlds come with a grey Background node
+        scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     return scene
