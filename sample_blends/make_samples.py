@@ -1,7 +1,8 @@
 """Make the sample scenes: ``python sample_blends/make_samples.py [OUT_DIR]`` with the bpy module.
 
 cornell_box.blend: the Cornell box from the graphics.cornell.edu data (mm -> m), reflectances and light radiance as
-in Mitsuba 3 (docs/references in the README), the light as an emissive mesh (Emission Strength = radiance). Walls
+in Mitsuba 3 (docs/references in the README), the light as an emissive mesh (Emission Strength = radiance) 0.5 mm
+below an opening in the ceiling (Cycles' mesh lights emit from both faces; the back face shines out). Walls
 are 10 x 10 grids and block faces 5 x 5, so that vertex colours have vertices to live on.
 """
 from __future__ import annotations
@@ -20,12 +21,16 @@ LIGHT_RADIANCE = (18.387, 13.9873, 6.75357)
 
 # Quads in mm, Cornell box coordinates (y up), as the Cornell data lists them (normals into the box).
 CORNELL = {
-    "floor": ([(552.8, 0, 0), (0, 0, 0), (0, 0, 559.2), (549.6, 0, 559.2)], "white"),
-    "ceiling": ([(556, 548.8, 0), (556, 548.8, 559.2), (0, 548.8, 559.2), (0, 548.8, 0)], "white"),
-    "back wall": ([(549.6, 0, 559.2), (0, 0, 559.2), (0, 548.8, 559.2), (556, 548.8, 559.2)], "white"),
-    "right wall": ([(0, 0, 559.2), (0, 0, 0), (0, 548.8, 0), (0, 548.8, 559.2)], "green"),
-    "left wall": ([(552.8, 0, 0), (549.6, 0, 559.2), (556, 548.8, 559.2), (556, 548.8, 0)], "red"),
-    "light": ([(343, 548.3, 227), (343, 548.3, 332), (213, 548.3, 332), (213, 548.3, 227)], "light"),
+    "floor": ([[(552.8, 0, 0), (0, 0, 0), (0, 0, 559.2), (549.6, 0, 559.2)]], "white"),
+    # the ceiling has an opening under which the light hangs, so the light's back face sees out of the box
+    "ceiling": ([[(556, 548.8, 0), (556, 548.8, 559.2), (343, 548.8, 559.2), (343, 548.8, 0)],
+                 [(213, 548.8, 0), (213, 548.8, 559.2), (0, 548.8, 559.2), (0, 548.8, 0)],
+                 [(343, 548.8, 0), (343, 548.8, 227), (213, 548.8, 227), (213, 548.8, 0)],
+                 [(343, 548.8, 332), (343, 548.8, 559.2), (213, 548.8, 559.2), (213, 548.8, 332)]], "white"),
+    "back wall": ([[(549.6, 0, 559.2), (0, 0, 559.2), (0, 548.8, 559.2), (556, 548.8, 559.2)]], "white"),
+    "right wall": ([[(0, 0, 559.2), (0, 0, 0), (0, 548.8, 0), (0, 548.8, 559.2)]], "green"),
+    "left wall": ([[(552.8, 0, 0), (549.6, 0, 559.2), (556, 548.8, 559.2), (556, 548.8, 0)]], "red"),
+    "light": ([[(343, 548.3, 227), (343, 548.3, 332), (213, 548.3, 332), (213, 548.3, 227)]], "light"),
 }
 SHORT_BLOCK_TOP = [(130, 165, 65), (82, 165, 225), (240, 165, 272), (290, 165, 114)]
 TALL_BLOCK_TOP = [(423, 330, 247), (265, 330, 296), (314, 330, 456), (472, 330, 406)]
@@ -92,8 +97,8 @@ def cornell_box(path: Path) -> None:
     scene.render.engine = "CYCLES"
     mats = {"white": material("white", WHITE), "green": material("green", GREEN), "red": material("red", RED),
             "light": material("light", (0.0, 0.0, 0.0), LIGHT_RADIANCE)}
-    for name, (quad, mat) in CORNELL.items():
-        mesh_object(name, [quad], mats[mat], cuts=1 if name == "light" else 10)
+    for name, (quads, mat) in CORNELL.items():
+        mesh_object(name, quads, mats[mat], cuts=1 if name == "light" else (4 if name == "ceiling" else 10))
     for name, top in (("short block", SHORT_BLOCK_TOP), ("tall block", TALL_BLOCK_TOP)):
         quads = block(top)
         # the Cornell data lists tops counter-clockwise from above; make every side face outwards
