@@ -4,6 +4,7 @@ The add-on imports the core relatively (``from ..core``), as it must inside an i
 repository root is loaded here as the package ``radiosity_baker`` and the add-on is registered from it.
 """
 import importlib.util
+import os
 import sys
 from pathlib import Path
 
@@ -37,4 +38,9 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    code = main(sys.argv[1:])
+    # The bpy 4.2 module can crash while tearing down at interpreter exit (seen as SIGSEGV after a successful
+    # bake); everything is written and flushed by now, so leave without the teardown.
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
