@@ -36,7 +36,8 @@ class BakeSettings:
     light_samples_per_edge: s, so s^2 shadow rays per element and soft light (area, sized point, sun angle, world).
     residual_threshold: stop shooting when unshot / injected power falls below it.
     adaptive_passes, adaptive_threshold, min_element_size_m: adaptive meshing (see core.adaptive).
-    row_cache_mb: memory for the element-to-patch form-factor matrix; over it, rows are recomputed when needed.
+    form_factor_memory_mb: memory for the element-to-patch form-factor matrix; over it, rows are recomputed
+        when needed (memory then stays O(n + P^2)).
     """
 
     patch_size_m: float = 0.5
@@ -51,7 +52,7 @@ class BakeSettings:
     adaptive_passes: int = 0
     adaptive_threshold: float = 0.2
     min_element_size_m: float = 0.01
-    row_cache_mb: float = 2048.0
+    form_factor_memory_mb: float = 2048.0
     seed: int = 0
     threads: int = 0
 
@@ -63,7 +64,7 @@ class BakeSettings:
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise SceneError(f"Setting '{name}' must be a positive number, got {value}.")
-        for name in ("adaptive_passes", "row_cache_mb", "threads", "seed"):
+        for name in ("adaptive_passes", "form_factor_memory_mb", "threads", "seed"):
             if getattr(self, name) < 0:
                 raise SceneError(f"Setting '{name}' must not be negative, got {getattr(self, name)}.")
         if self.form_factors not in ("raycast", "hemicube"):
@@ -93,7 +94,7 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
     timer.lap("direct light")
     state = RadiosityState.start(elements, patches, direct)
     threads = settings.threads or os.cpu_count() or 1
-    factors = FormFactors(rows, len(patches.area_m2), int(settings.row_cache_mb * 2 ** 20), threads)
+    factors = FormFactors(rows, len(patches.area_m2), int(settings.form_factor_memory_mb * 2 ** 20), threads)
     _solve(state, factors, settings, caster, progress, cancelled)
     timer.lap("solve")
     criteria = adaptive.RefinementCriteria(settings.adaptive_threshold, settings.min_element_size_m)
