@@ -26,6 +26,7 @@ class Solution:
     weld_tolerance_m: float
     seconds: dict[str, float] = field(default_factory=dict)
     rays_cast: int = 0
+    _corner_light: np.ndarray | None = field(default=None, init=False, repr=False)
 
     @property
     def history(self) -> list[ConvergenceStep]:
@@ -48,7 +49,12 @@ class Solution:
         return self.state.radiosity
 
     def corner_light(self) -> np.ndarray:
-        """(n, 3, 3) light at each element's corners by area-weighted nodal averaging."""
+        """(n, 3, 3) light at each element's corners by area-weighted nodal averaging (computed once)."""
+        if self._corner_light is None:
+            self._corner_light = self._nodal_average()
+        return self._corner_light
+
+    def _nodal_average(self) -> np.ndarray:
         elements = self.state.elements
         _, corner_vertex = weld_vertices(self.mesh, elements.node, self.weld_tolerance_m)
         corner_of = corner_vertex.ravel()
