@@ -12,6 +12,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from . import adaptive
+from .direct import DirectLighting
 from .lights import direct_irradiance
 from .mesh import build_mesh, elements_of
 from .progress import Progress, never_cancelled, no_progress
@@ -19,7 +20,7 @@ from .raycast import RayCaster
 from .scene import Scene, SceneError
 from .shooting import HemicubeRows, Patches, RayCastRows
 from .solution import Solution
-from .solver import FormFactors, RadiosityState, solve_direct, solve_progressive
+from .solver import FormFactors, RadiosityState, patch_mean, solve_direct, solve_progressive
 
 RAY_OFFSET_FRACTION = 2e-5
 
@@ -106,8 +107,10 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
         state = refined
         _solve(state, factors, settings, caster, progress, cancelled)
         timer.lap(f"adaptive pass {number + 1}")
-    caster.close()
-    return Solution(scene, mesh, state, weld_tolerance_m=offset / 10, seconds=timer.laps, rays_cast=caster.rays_cast)
+    emission = patch_mean(state.elements.emitted_exitance, state.elements, patches)
+    direct = DirectLighting(scene, caster, patches, emission, offset, settings.light_samples_per_edge, settings.seed)
+    return Solution(scene, mesh, state, weld_tolerance_m=offset / 10, seconds=timer.laps, rays_cast=caster.rays_cast,
+                    direct=direct)
 
 
 def _form_factor_rows(settings, caster, patches, mesh, scene, offset):

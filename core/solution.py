@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .direct import DirectLighting
 from .mesh import ElementMesh, weld_vertices
 from .scene import Scene
 from .solver import ConvergenceStep, RadiosityState
@@ -26,7 +27,9 @@ class Solution:
     weld_tolerance_m: float
     seconds: dict[str, float] = field(default_factory=dict)
     rays_cast: int = 0
+    direct: DirectLighting | None = None
     _corner_light: np.ndarray | None = field(default=None, init=False, repr=False)
+    _corner_indirect: np.ndarray | None = field(default=None, init=False, repr=False)
 
     @property
     def history(self) -> list[ConvergenceStep]:
@@ -51,10 +54,18 @@ class Solution:
     def corner_light(self) -> np.ndarray:
         """(n, 3, 3) light at each element's corners by area-weighted nodal averaging (computed once)."""
         if self._corner_light is None:
-            self._corner_light = self._nodal_average()
+            self._corner_light = self._nodal_average(self.element_light())
         return self._corner_light
 
-    def _nodal_average(self) -> np.ndarray:
+    def _corner_indirect_light(self) -> np.ndarray:
+        """(n, 3, 3) indirect light (total minus what ``direct`` gives at the element centroids) at corners."""
+        if self._corner_indirect is None:
+            elements = self.state.elements
+            direct = self.direct.irradiance(elements.centroid, elements.normal, elements.patch)
+            self._corner_indirect = self._nodal_average((self.state.irradiance - direct) / np.pi)
+        return self._corner_indirect
+
+    def _nodal_average(self, light: np.ndarray) -> np.ndarray:
         elements = self.state.elements
         _, corner_vertex = weld_vertices(self.mesh, elements.node, self.weld_tolerance_m)
         corner_of = corner_vertex.ravel()
@@ -69,16 +80,18 @@ class Solution:
         mine = owner[corner]
         smooth = (elements.normal[mine] * elements.normal[partner]).sum(axis=1) >= np.cos(SMOOTH_ANGLE_RAD)
         weight = elements.area_m2[partner] * smooth
-        light = self.element_light()
         total = np.zeros((3 * len(elements.node), 3))
         np.add.at(total, corner, weight[:, None] * light[partner])
         norm = np.bincount(corner, weights=weight, minlength=3 * len(elements.node))
         return (total / norm[:, None]).reshape(-1, 3, 3)
 
-    def evaluate(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+    def evaluate(self, scene_triangle: np.ndarray, barycentric: np.ndarray,
+                 direct_per_point: bool = False) -> np.ndarray:
         """(m, 3) light at surface points given by scene triangle index and barycentrics in that triangle.
 
-        Points on "shadow only" triangles (not solved) get NaN.
+        With ``direct_per_point`` (and ``direct`` set), the direct part is computed at each point with shadow rays
+        and only the indirect part is interpolated from the element corners; otherwise the element solution is
+        interpolated. Points on "shadow only" triangles (not solved) get NaN.
         """
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         to_mesh = np.full(len(self.scene.triangles), -1)
@@ -89,7 +102,17 @@ class Solution:
         node, local = self.mesh.locate(mesh_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved])
         position = np.full(len(self.mesh.node_bary), -1)
         position[self.state.elements.node] = np.arange(self.element_count)
-        out[solved] = np.einsum("mc,mck->mk", local, self.corner_light()[position[node]])
+        leaf = position[node]
+        if self.direct is None or not direct_per_point:
+            out[solved] = np.einsum("mc,mck->mk", local, self.corner_light()[leaf])
+            return out
+        bary = np.asarray(barycentric, dtype=np.float64)[solved]
+        triangles = self.scene.triangles[scene_triangle[solved]]
+        points = np.einsum("mc,mck->mk", bary, triangles)
+        normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        direct = self.direct.irradiance(points, normals, self.state.elements.patch[leaf]) / np.pi
+        out[solved] = direct + np.einsum("mc,mck->mk", local, self._corner_indirect_light()[leaf])
         return out
 
     def radiosity_mesh(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -29,7 +29,7 @@ def floor_grid(points_per_side=121):
 
 def light_on_floor(settings):
     solution = bake(shadow_scene(), settings)
-    return solution.element_count, solution.evaluate(*floor_grid())[:, 1]
+    return solution.element_count, solution.evaluate(*floor_grid(), direct_per_point=False)[:, 1]
 
 
 def test_adaptive_meshing_beats_uniform_meshing_at_equal_element_count():
@@ -43,6 +43,19 @@ def test_adaptive_meshing_beats_uniform_meshing_at_equal_element_count():
     rmse = lambda values: np.sqrt(np.mean((values - reference) ** 2))
     assert adaptive_count <= uniform_count
     assert rmse(adaptive) < 0.7 * rmse(uniform)
+
+
+def test_direct_light_per_point_is_sharp_on_coarse_elements():
+    """Evaluating the direct light per point (only the indirect part interpolated) makes 0.25 m elements as good
+    as the 1/32 m reference's own interpolation: RMSE under 0.3 x that of interpolating the coarse solution
+    (measured: 0.24 x)."""
+    common = dict(patch_size_m=0.5, light_samples_per_edge=8)
+    _, reference = light_on_floor(BakeSettings(element_size_m=1 / 32, **common))
+    solution = bake(shadow_scene(), BakeSettings(element_size_m=0.25, **common))
+    interpolated = solution.evaluate(*floor_grid(), direct_per_point=False)[:, 1]
+    per_point = solution.evaluate(*floor_grid(), direct_per_point=True)[:, 1]
+    rmse = lambda values: np.sqrt(np.mean((values - reference) ** 2))
+    assert rmse(per_point) < 0.3 * rmse(interpolated)
 
 
 def test_adaptive_passes_split_only_where_light_changes():
