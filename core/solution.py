@@ -108,7 +108,8 @@ class Solution:
             return out
         bary = np.asarray(barycentric, dtype=np.float64)[solved]
         triangles = self.scene.triangles[scene_triangle[solved]]
-        points = np.einsum("mc,mck->mk", bary, triangles)
+        points = _inset(np.einsum("mc,mck->mk", bary, triangles), self.state.elements.centroid[leaf],
+                        4 * self.direct.offset_m)
         normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
         normals /= np.linalg.norm(normals, axis=1, keepdims=True)
         direct = self.direct.irradiance(points, normals, self.state.elements.patch[leaf]) / np.pi
@@ -119,6 +120,14 @@ class Solution:
         """The element mesh with its light: (V, 3) vertices, (n, 3) triangles, (n, 3, 3) corner light."""
         vertices, corner_vertex = weld_vertices(self.mesh, self.state.elements.node, self.weld_tolerance_m)
         return vertices, corner_vertex, self.corner_light()
+
+
+def _inset(points: np.ndarray, centroids: np.ndarray, distance_m: float) -> np.ndarray:
+    """Points moved up to ``distance_m`` (at most half way) towards their element's centroid, so a point on a
+    crease (a floor vertex against a wall) does not start its shadow rays inside the other surface."""
+    towards = centroids - points
+    length = np.linalg.norm(towards, axis=1, keepdims=True)
+    return points + towards * np.minimum(distance_m, 0.5 * length) / np.maximum(length, 1e-300)
 
 
 def _ranges(sizes: np.ndarray) -> np.ndarray:

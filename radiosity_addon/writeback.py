@@ -49,12 +49,13 @@ def write_vertex_colors(export: Export, solution, attribute: str) -> tuple[list[
 
 
 def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj) -> np.ndarray:
-    """(loops, 3) light per loop of the original mesh."""
+    """(loops, 3) light per loop of the original mesh: direct light by shadow rays at each corner, indirect light
+    interpolated from the elements (core.solution.Solution.evaluate)."""
     triangles = kept[item.first_triangle + np.arange(item.triangle_count)]
     if item.same_topology:
         valid = triangles >= 0
         corner_bary = np.tile(np.eye(3), (int(valid.sum()), 1))
-        values = solution.evaluate(np.repeat(triangles[valid], 3), corner_bary)
+        values = solution.evaluate(np.repeat(triangles[valid], 3), corner_bary, direct_per_point=True)
         light = np.zeros((len(obj.data.loops), 3))
         light[item.corner_loops[valid].ravel()] = values
         return np.nan_to_num(light)
@@ -91,7 +92,7 @@ def _projected_light(item, solution, triangles, obj) -> np.ndarray:
         nearer = distance < best[found]
         closer = found[nearer]
         best[closer] = distance[nearer]
-        light[closer] = solution.evaluate(valid[hit[closer]], bary[closer])
+        light[closer] = solution.evaluate(valid[hit[closer]], bary[closer], direct_per_point=True)
     caster.close()
     return np.nan_to_num(light)
 

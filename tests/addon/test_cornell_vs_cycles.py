@@ -1,11 +1,10 @@
 """The Cornell box sample baked to vertex colours against a Cycles vertex-colour bake (Diffuse, Direct + Indirect,
 no Color, 1024 samples per vertex).
 
-Measured at Medium quality (bpy 5.2.3): per-surface means within 0-6% of Cycles on the walls, floor and blocks;
-relative RMSE over their vertices 6-12% per surface, most of it at concave corners where Cycles samples a point and
-we interpolate element averages. The ceiling is left out: its vertices on the rim of the light's opening sit
-0.5 mm from the light's back face, a point value no element average can reproduce. The issue's goal is 5% RMSE;
-this test guards what is reached now.
+Measured at Medium quality (bpy 5.2.3), with the direct light evaluated at each vertex: per-surface means within
+0-6% of Cycles on all seven surfaces; relative RMSE over the vertices 6-10% per surface on the walls, floor and
+blocks, 22% on the ceiling, whose vertices on the rim of the light's opening sit 0.5 mm from the light's back face.
+The issue's goal is 5% RMSE; this test guards what is reached now.
 """
 import bpy
 import numpy as np
@@ -13,7 +12,8 @@ import pytest
 
 from blender_setup import corner_colors, cycles_vertex_bake, make_cornell_box
 
-COMPARED = ["floor", "back wall", "left wall", "right wall", "short block", "tall block"]
+COMPARED = ["floor", "ceiling", "back wall", "left wall", "right wall", "short block", "tall block"]
+AWAY_FROM_THE_LIGHT = [name for name in COMPARED if name != "ceiling"]
 
 
 def test_cornell_box_matches_cycles(tmp_path, extension):
@@ -26,5 +26,8 @@ def test_cornell_box_matches_cycles(tmp_path, extension):
     cycles = {o.name: corner_colors(o.data, "Cycles") for o in objects}
     for name in COMPARED:
         assert ours[name].mean(axis=0) == pytest.approx(cycles[name].mean(axis=0), rel=0.08), name
-    everything_ours, everything_cycles = np.concatenate(list(ours.values())), np.concatenate(list(cycles.values()))
-    assert np.sqrt(np.mean((everything_ours - everything_cycles) ** 2)) <= 0.12 * everything_cycles.mean()
+    ours_rest = np.concatenate([ours[name] for name in AWAY_FROM_THE_LIGHT])
+    cycles_rest = np.concatenate([cycles[name] for name in AWAY_FROM_THE_LIGHT])
+    assert np.sqrt(np.mean((ours_rest - cycles_rest) ** 2)) <= 0.10 * cycles_rest.mean()
+    ceiling_error = np.sqrt(np.mean((ours["ceiling"] - cycles["ceiling"]) ** 2))
+    assert ceiling_error <= 0.30 * cycles["ceiling"].mean()
