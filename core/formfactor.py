@@ -109,12 +109,6 @@ def triangle_samples(triangles: np.ndarray, samples_per_edge: int) -> np.ndarray
     return np.einsum("sj,mjk->msk", triangle_sample_barycentrics(samples_per_edge), triangles)
 
 
-def triangle_unit_normals(triangles: np.ndarray) -> np.ndarray:
-    """(m, 3) unit normals of (m, 3, 3) triangles (right-handed winding)."""
-    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    return normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), _TINY)
-
-
 @lru_cache(maxsize=8)
 def hemicube_delta_form_factors(resolution: int) -> tuple[np.ndarray, np.ndarray]:
     """Pixel directions (p, 3) in the local frame (z = normal) and delta form factors (p,) of a hemicube.

@@ -17,7 +17,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .scene import Scene, triangle_areas
+from .scene import Scene, triangle_areas, triangle_unit_normals
 
 # Children of a 4-way split of (a, b, c), as barycentric combinations of the parent's corners:
 # three corner triangles, then the middle one (ab, bc, ca).
@@ -105,12 +105,6 @@ class ElementMesh:
     def leaves(self) -> np.ndarray:
         """Node indices of the current elements."""
         return np.flatnonzero(self.node_children[:, 0] < 0)
-
-    @property
-    def triangle_normals(self) -> np.ndarray:
-        """(T, 3) unit normals (right-handed winding)."""
-        cross = np.cross(self.triangles[:, 1] - self.triangles[:, 0], self.triangles[:, 2] - self.triangles[:, 0])
-        return cross / np.linalg.norm(cross, axis=1, keepdims=True)
 
     def corners(self, nodes: np.ndarray) -> np.ndarray:
         """(len(nodes), 3, 3) world-space corners, m."""
@@ -207,7 +201,7 @@ def elements_of(mesh: ElementMesh, scene: Scene, nodes: np.ndarray | None = None
     material = scene.material_index[scene_triangle]
     return Elements(
         node=nodes, patch=mesh.node_patch[nodes], corners=corners, centroid=corners.mean(axis=1),
-        normal=mesh.triangle_normals[mesh.node_triangle[nodes]], area_m2=triangle_areas(corners),
+        normal=triangle_unit_normals(mesh.triangles[mesh.node_triangle[nodes]]), area_m2=triangle_areas(corners),
         reflectance=scene.reflectance[material], emitted_exitance=np.pi * scene.emitted_radiance[material])
 
 

@@ -182,6 +182,12 @@ def triangle_areas(triangles: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(cross, axis=-1)
 
 
+def triangle_unit_normals(triangles: np.ndarray) -> np.ndarray:
+    """Unit normals of (..., 3, 3) triangles (right-handed winding); zero for degenerate ones."""
+    normal = np.cross(triangles[..., 1, :] - triangles[..., 0, :], triangles[..., 2, :] - triangles[..., 0, :])
+    return normal / np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-300)
+
+
 def _validate(scene: Scene) -> None:
     count = len(scene.triangles)
     if count == 0:

@@ -16,11 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .formfactor import (hemicube_item_buffer, point_to_polygon, triangle_samples, triangle_unit_normals,
-                         visible_fraction)
+from .formfactor import hemicube_item_buffer, point_to_polygon, triangle_samples, visible_fraction
 from .mesh import ElementMesh, Elements
 from .raycast import RayCaster
-from .scene import triangle_areas
+from .scene import triangle_areas, triangle_unit_normals
 
 
 @dataclass

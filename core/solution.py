@@ -13,7 +13,7 @@ import numpy as np
 
 from .direct import DirectLighting
 from .mesh import ElementMesh, weld_vertices
-from .scene import Scene
+from .scene import Scene, triangle_unit_normals
 from .solver import ConvergenceStep, RadiosityState
 
 SMOOTH_ANGLE_RAD = np.radians(45.0)
@@ -110,8 +110,7 @@ class Solution:
         triangles = self.scene.triangles[scene_triangle[solved]]
         points = _inset(np.einsum("mc,mck->mk", bary, triangles), self.state.elements.centroid[leaf],
                         4 * self.direct.offset_m)
-        normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = triangle_unit_normals(triangles)
         direct = self.direct.irradiance(points, normals, self.state.elements.patch[leaf]) / np.pi
         out[solved] = direct + np.einsum("mc,mck->mk", local, self._corner_indirect_light()[leaf])
         return out
