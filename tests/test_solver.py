@@ -172,3 +172,15 @@ def test_point_source_in_closed_cube_matches_the_indirect_invariant():
     direct_expected = 50_000 * 5 / np.linalg.norm(floor_point) ** 3
     assert state.direct_irradiance.max() == pytest.approx(2000.0, rel=0.01)
     assert centre[0, 0] * np.pi >= direct_expected
+
+
+def test_ambient_term_brings_an_early_stop_closer_to_the_converged_answer():
+    """Cohen et al. 1988: stopped at 30% residual, B + rho x ambient is nearer B = E / (1 - rho) than B alone;
+    in the uniform furnace the ambient term is exact, so it must close at least 90% of the gap."""
+    scene, _ = closed_box(0.8, uniform_exitance=1.0)
+    state = bake(scene, BakeSettings(patch_size_m=0.5, element_size_m=0.25, residual_threshold=0.3)).state
+    converged = 1.0 / (1.0 - 0.8)
+    gap = np.abs(state.radiosity - converged).mean()
+    with_ambient = state.radiosity + state.elements.reflectance * state.ambient()
+    assert gap > 0.1 * converged
+    assert np.abs(with_ambient - converged).mean() < 0.1 * gap
