@@ -30,6 +30,7 @@ class Solution:
     direct: DirectLighting | None = None
     _corner_light: np.ndarray | None = field(default=None, init=False, repr=False)
     _corner_indirect: np.ndarray | None = field(default=None, init=False, repr=False)
+    _lookup_tables: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
 
     @property
     def history(self) -> list[ConvergenceStep]:
@@ -94,14 +95,11 @@ class Solution:
         interpolated. Points on "shadow only" triangles (not solved) get NaN.
         """
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
-        to_mesh = np.full(len(self.scene.triangles), -1)
-        to_mesh[self.mesh.triangle_scene] = np.arange(len(self.mesh.triangle_scene))
+        to_mesh, position = self._lookups()
         mesh_triangle = to_mesh[scene_triangle]
         solved = mesh_triangle >= 0
         out = np.full((len(scene_triangle), 3), np.nan)
         node, local = self.mesh.locate(mesh_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved])
-        position = np.full(len(self.mesh.node_bary), -1)
-        position[self.state.elements.node] = np.arange(self.element_count)
         leaf = position[node]
         if self.direct is None or not direct_per_point:
             out[solved] = np.einsum("mc,mck->mk", local, self.corner_light()[leaf])
@@ -114,6 +112,16 @@ class Solution:
         direct = self.direct.irradiance(points, normals, self.state.elements.patch[leaf]) / np.pi
         out[solved] = direct + np.einsum("mc,mck->mk", local, self._corner_indirect_light()[leaf])
         return out
+
+    def _lookups(self) -> tuple[np.ndarray, np.ndarray]:
+        """Scene triangle -> mesh triangle (-1 if not solved) and mesh node -> element row, built once."""
+        if self._lookup_tables is None:
+            to_mesh = np.full(len(self.scene.triangles), -1)
+            to_mesh[self.mesh.triangle_scene] = np.arange(len(self.mesh.triangle_scene))
+            position = np.full(len(self.mesh.node_bary), -1)
+            position[self.state.elements.node] = np.arange(self.element_count)
+            self._lookup_tables = (to_mesh, position)
+        return self._lookup_tables
 
     def radiosity_mesh(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The element mesh with its light: (V, 3) vertices, (n, 3) triangles, (n, 3, 3) corner light."""
