@@ -24,12 +24,18 @@ class DirectLighting:
         self.samples_per_edge, self.seed = samples_per_edge, seed
         self.emitters = np.flatnonzero(patch_emission.max(axis=1) > 0)
         self.emission = patch_emission[self.emitters]
-        self.rows = RayCastRows(caster, patches, samples_per_edge, offset_m)
+        self.patches = patches
+        self._rows = {samples_per_edge: RayCastRows(caster, patches, samples_per_edge, offset_m)}
 
-    def irradiance(self, points: np.ndarray, normals: np.ndarray, own_patch: np.ndarray | None = None) -> np.ndarray:
-        """(m, 3) direct irradiance at points with unit normals; ``own_patch`` (m,) excludes each point's patch."""
-        total = direct_irradiance(self.scene, self.caster, points, normals, self.offset_m, self.samples_per_edge,
-                                  self.seed)
+    def irradiance(self, points: np.ndarray, normals: np.ndarray, own_patch: np.ndarray | None = None,
+                   samples_per_edge: int | None = None) -> np.ndarray:
+        """(m, 3) direct irradiance at points with unit normals; ``own_patch`` (m,) excludes each point's patch;
+        ``samples_per_edge`` overrides the shadow-ray count (s^2 per light and emitter)."""
+        samples = samples_per_edge or self.samples_per_edge
+        total = direct_irradiance(self.scene, self.caster, points, normals, self.offset_m, samples, self.seed)
+        if samples not in self._rows:
+            self._rows[samples] = RayCastRows(self.caster, self.patches, samples, self.offset_m)
+        rows = self._rows[samples]
         if len(self.emitters):
             count = len(points)
             receivers = Elements(node=np.arange(count), patch=np.full(count, -1) if own_patch is None else own_patch,
@@ -37,5 +43,5 @@ class DirectLighting:
                                  emitted_exitance=None)
             for start in range(0, len(self.emitters), 64):
                 block = self.emitters[start:start + 64]
-                total += self.rows.block(block, receivers) @ self.emission[start:start + 64]
+                total += rows.block(block, receivers) @ self.emission[start:start + 64]
         return total

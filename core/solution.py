@@ -15,6 +15,7 @@ from .direct import DirectLighting
 from .mesh import ElementMesh, weld_vertices
 from .scene import Scene, triangle_unit_normals
 from .solver import ConvergenceStep, RadiosityState
+from .texels import inset
 
 SMOOTH_ANGLE_RAD = np.radians(45.0)
 
@@ -30,6 +31,7 @@ class Solution:
     direct: DirectLighting | None = None
     _corner_light: np.ndarray | None = field(default=None, init=False, repr=False)
     _corner_indirect: np.ndarray | None = field(default=None, init=False, repr=False)
+    _corner_reflected: np.ndarray | None = field(default=None, init=False, repr=False)
     _lookup_tables: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
 
     @property
@@ -92,26 +94,58 @@ class Solution:
 
         With ``direct_per_point`` (and ``direct`` set), the direct part is computed at each point with shadow rays
         and only the indirect part is interpolated from the element corners; otherwise the element solution is
-        interpolated. Points on "shadow only" triangles (not solved) get NaN.
+        interpolated. Points on "shadow only" triangles (not solved) get NaN; black channels of the reflectance
+        get 0, as in Cycles' Diffuse bake without Color (it divides by the albedo).
         """
-        scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
-        to_mesh, position = self._lookups()
-        mesh_triangle = to_mesh[scene_triangle]
-        solved = mesh_triangle >= 0
-        out = np.full((len(scene_triangle), 3), np.nan)
-        node, local = self.mesh.locate(mesh_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved])
-        leaf = position[node]
+        black = self.scene.reflectance[self.scene.material_index[np.asarray(scene_triangle, dtype=np.int64)]] == 0
         if self.direct is None or not direct_per_point:
-            out[solved] = np.einsum("mc,mck->mk", local, self.corner_light()[leaf])
-            return out
-        bary = np.asarray(barycentric, dtype=np.float64)[solved]
-        triangles = self.scene.triangles[scene_triangle[solved]]
-        points = _inset(np.einsum("mc,mck->mk", bary, triangles), self.state.elements.centroid[leaf],
-                        4 * self.direct.offset_m)
-        normals = triangle_unit_normals(triangles)
-        direct = self.direct.irradiance(points, normals, self.state.elements.patch[leaf]) / np.pi
-        out[solved] = direct + np.einsum("mc,mck->mk", local, self._corner_indirect_light()[leaf])
+            return np.where(black, 0.0, self.interpolate(self.corner_light(), scene_triangle, barycentric))
+        barycentric = np.asarray(barycentric, dtype=np.float64)
+        triangles = self.scene.triangles[np.asarray(scene_triangle, dtype=np.int64)]
+        points = np.einsum("mc,mck->mk", barycentric, triangles)
+        solved, leaf, _ = self._leaves(scene_triangle, barycentric)
+        points[solved] = inset(points[solved], self.state.elements.centroid[leaf], 4 * self.direct.offset_m)
+        direct = self.direct_light(points, triangle_unit_normals(triangles), scene_triangle, barycentric)
+        return np.where(black, 0.0, direct + self.indirect_light(scene_triangle, barycentric))
+
+    def direct_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
+                     barycentric: np.ndarray, samples_per_edge: int | None = None) -> np.ndarray:
+        """(m, 3) direct light (irradiance / pi) at points by shadow rays; the point's own patch (found from its
+        triangle and barycentrics) is not counted as an emitter. NaN on triangles that were not solved."""
+        solved, leaf, _ = self._leaves(scene_triangle, barycentric)
+        out = np.full((len(points), 3), np.nan)
+        out[solved] = self.direct.irradiance(points[solved], normals[solved], self.state.elements.patch[leaf],
+                                             samples_per_edge) / np.pi
         return out
+
+    def indirect_light(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+        """(m, 3) indirect light (total minus direct at the element centroids), interpolated from the corners."""
+        return self.interpolate(self._corner_indirect_light(), scene_triangle, barycentric)
+
+    def reflected_radiosity(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+        """(m, 3) reflected radiosity rho H (W m^-2, emission excluded), interpolated from the element corners:
+        what a final-gather ray sees where it lands."""
+        if self._corner_reflected is None:
+            elements = self.state.elements
+            self._corner_reflected = self._nodal_average(self.state.radiosity - elements.emitted_exitance)
+        return self.interpolate(self._corner_reflected, scene_triangle, barycentric)
+
+    def interpolate(self, corner_values: np.ndarray, scene_triangle: np.ndarray,
+                    barycentric: np.ndarray) -> np.ndarray:
+        """(m, k) linear interpolation of (n, 3, k) per-element corner values at surface points; NaN on
+        triangles that were not solved."""
+        solved, leaf, local = self._leaves(scene_triangle, barycentric)
+        out = np.full((len(solved), corner_values.shape[-1]), np.nan)
+        out[solved] = np.einsum("mc,mck->mk", local, corner_values[leaf])
+        return out
+
+    def _leaves(self, scene_triangle, barycentric) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Solved mask (m,), and for the solved points their element row and barycentrics in the element."""
+        to_mesh, position = self._lookups()
+        mesh_triangle = to_mesh[np.asarray(scene_triangle, dtype=np.int64)]
+        solved = mesh_triangle >= 0
+        node, local = self.mesh.locate(mesh_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved])
+        return solved, position[node], local
 
     def _lookups(self) -> tuple[np.ndarray, np.ndarray]:
         """Scene triangle -> mesh triangle (-1 if not solved) and mesh node -> element row, built once."""
@@ -127,14 +161,6 @@ class Solution:
         """The element mesh with its light: (V, 3) vertices, (n, 3) triangles, (n, 3, 3) corner light."""
         vertices, corner_vertex = weld_vertices(self.mesh, self.state.elements.node, self.weld_tolerance_m)
         return vertices, corner_vertex, self.corner_light()
-
-
-def _inset(points: np.ndarray, centroids: np.ndarray, distance_m: float) -> np.ndarray:
-    """Points moved up to ``distance_m`` (at most half way) towards their element's centroid, so a point on a
-    crease (a floor vertex against a wall) does not start its shadow rays inside the other surface."""
-    towards = centroids - points
-    length = np.linalg.norm(towards, axis=1, keepdims=True)
-    return points + towards * np.minimum(distance_m, 0.5 * length) / np.maximum(length, 1e-300)
 
 
 def _ranges(sizes: np.ndarray) -> np.ndarray:

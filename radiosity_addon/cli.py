@@ -28,13 +28,14 @@ class CommandError(Exception):
 
 def build_parser(prog: str) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog=prog, description="Bake diffuse light by radiosity into colour attributes of a .blend file. Values "
-        "are irradiance / pi, as Cycles' Diffuse bake with Direct + Indirect and no Color stores them.")
+        prog=prog, description="Bake diffuse light by radiosity into colour attributes and/or lightmap textures "
+        "of a .blend file. Values are irradiance / pi, as Cycles' Diffuse bake with Direct + Indirect and no Color "
+        "stores them.")
     parser.add_argument("input", metavar="IN.blend", help="the .blend file to bake")
     parser.add_argument("-o", "--output", metavar="OUT.blend", required=True, help="where to save the baked file")
     parser.add_argument("--report", metavar="REPORT.json", help="write a JSON report of outputs and timings")
     parser.add_argument("--target", choices=["vertex_colors", "lightmap", "both"], default="vertex_colors",
-                        help="what to bake into (lightmaps are not available yet)")
+                        help="colour attributes, a lightmap texture on a new UV map, or both (default: vertex_colors)")
     parser.add_argument("--quality", choices=[q.lower() for q in PRESETS] + ["custom"], default="medium",
                         help="preset; 'custom' uses the options below (default: medium)")
     parser.add_argument("--element-size", type=float, default=0.25, help="element edge length, m (custom)")
@@ -45,6 +46,17 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--form-factors", choices=["raycast", "hemicube"], default="raycast")
     parser.add_argument("--attribute", default="Radiosity", help="colour attribute name (default: Radiosity)")
     parser.add_argument("--radiosity-mesh", action="store_true", help="also add the element mesh as an object")
+    density = parser.add_mutually_exclusive_group()
+    density.add_argument("--texels-per-meter", type=float, help="lightmap density (default: from --quality)")
+    density.add_argument("--resolution", type=int, help="square lightmap size in texels; the density fills it")
+    parser.add_argument("--padding", type=int, default=4, help="lightmap texels between charts (default: 4)")
+    parser.add_argument("--gather-samples", type=int, default=8,
+                        help="final-gather rays per texel: this squared (custom quality)")
+    parser.add_argument("--uv-map", default="Lightmap", help="name of the lightmap UV map to make")
+    parser.add_argument("--lightmap-image", default="Radiosity Lightmap", help="lightmap image and file name")
+    parser.add_argument("--lightmap-dir", metavar="DIR",
+                        help="folder for the lightmap .exr (default: the folder of OUT.blend)")
+    parser.add_argument("--float", action="store_true", help="32-bit float EXR (default: 16-bit half)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the stratified samples")
     return parser
 
@@ -66,29 +78,42 @@ def _bake(args) -> dict:
     import bpy
     from ..core import BakeCancelled, SceneError
     from . import job as bake_job
-    if args.target != "vertex_colors":
-        raise CommandError(EXIT_BAD_ARGUMENT, f"--target {args.target}: lightmaps are not available yet; "
-                                              "use --target vertex_colors")
+    from .job import Outputs
+    from .lightmaps import LightmapOptions
+    for name in ("texels_per_meter", "resolution", "padding", "gather_samples"):
+        value = getattr(args, name)
+        if value is not None and value <= 0:
+            raise CommandError(EXIT_BAD_ARGUMENT, f"--{name.replace('_', '-')} must be positive, got {value}")
     if not os.path.isfile(args.input):
         raise CommandError(EXIT_INPUT, f"input file not found: {args.input}")
+    folder = os.path.abspath(args.lightmap_dir or os.path.dirname(os.path.abspath(args.output)))
     for path, what in ((args.output, "output"), (args.report, "report")):
         if path and not _writable(path):
             raise CommandError(EXIT_OUTPUT, f"cannot write the {what} file: {path} (missing or read-only folder)")
+    if args.target != "vertex_colors" and not _writable(os.path.join(folder, "lightmap.exr")):
+        raise CommandError(EXIT_OUTPUT, f"cannot write lightmaps into {folder} (missing or read-only folder)")
     try:
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.input), load_ui=False)
     except RuntimeError as error:
         raise CommandError(EXIT_INPUT, f"cannot read {args.input}: {str(error).strip().splitlines()[-1]}")
     user = UserSettings(args.quality.upper(), args.element_size, args.patch_size, args.adaptive_passes,
-                        args.residual, args.light_samples, args.form_factors, args.seed)
+                        args.residual, args.light_samples, args.form_factors, args.seed, args.gather_samples,
+                        args.texels_per_meter or 0.0)
+    lightmap = LightmapOptions(args.uv_map, args.lightmap_image, args.texels_per_meter, args.resolution,
+                               args.padding, half=not args.float)
+    outputs = Outputs(args.target.upper(), args.attribute, args.radiosity_mesh, lightmap, folder)
     started = time.perf_counter()
     try:
-        job = bake_job.prepare(bpy.context, user, args.attribute, args.radiosity_mesh)
+        job = bake_job.prepare(bpy.context, user, outputs)
         bake_job.solve(job, _progress_to_stderr(), lambda: False)
     except SceneError as error:
         raise CommandError(EXIT_SCENE, str(error))
     except BakeCancelled as error:
         raise CommandError(EXIT_OTHER, str(error))
-    report = bake_job.apply(job)
+    try:
+        report = bake_job.apply(job)
+    except SceneError as error:  # a lightmap file that cannot be written
+        raise CommandError(EXIT_OUTPUT, str(error))
     report["seconds"] = time.perf_counter() - started
     report["input"], report["output"] = os.path.abspath(args.input), os.path.abspath(args.output)
     try:

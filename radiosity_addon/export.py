@@ -21,8 +21,8 @@ DEFAULT_MATERIAL = Material("(no material)", (0.8, 0.8, 0.8))
 class ExportedObject:
     """Where one object instance's triangles sit in the exported scene.
 
-    first_triangle / triangle_count: its range in the scene's input triangles; corner_loops: (t, 3) loop of each
-    triangle corner in the evaluated mesh; writable: a real (not instanced) mesh object that is baked;
+    first_triangle / triangle_count: its range in the scene's input triangles; corner_loops / corner_vertices:
+    (t, 3) loop and vertex of each triangle corner in the evaluated mesh; writable: a real (not instanced) mesh object that is baked;
     same_topology: its evaluated mesh has the original mesh's loops, so values map loop to loop.
     """
 
@@ -31,14 +31,19 @@ class ExportedObject:
     first_triangle: int
     triangle_count: int
     corner_loops: np.ndarray
+    corner_vertices: np.ndarray
     writable: bool
     same_topology: bool
 
 
 @dataclass
 class Export:
+    """The core scene, where each object sits in it, and the (T, 3, 3) triangles as exported (before the scene
+    dropped zero-area ones; ExportedObject ranges index these)."""
+
     scene: Scene
     objects: list[ExportedObject]
+    input_triangles: np.ndarray
     warnings: list[str] = field(default_factory=list)
 
 
@@ -63,12 +68,12 @@ def export_scene(context) -> Export:
         part = _mesh_triangles(evaluated, np.array(instance.matrix_world), materials)
         if part is None:
             continue
-        world_triangles, slots, loops = part
+        world_triangles, slots, loops, vertices = part
         name = original.name if not instance.is_instance else f"{original.name} (instance of {owner.name})"
         first = sum(len(t) for t in triangles)
         objects.append(ExportedObject(
             name=original.name, mesh_name=original.data.name if original.type == "MESH" else "",
-            first_triangle=first, triangle_count=len(world_triangles), corner_loops=loops,
+            first_triangle=first, triangle_count=len(world_triangles), corner_loops=loops, corner_vertices=vertices,
             writable=(not instance.is_instance and original.type == "MESH" and mode == "BAKE"),
             same_topology=_same_topology(evaluated, original)))
         names.append(name)
@@ -78,11 +83,12 @@ def export_scene(context) -> Export:
         object_index.append(np.full(len(world_triangles), len(names) - 1))
     _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials.list)
     stack = lambda parts, shape, dtype: np.concatenate(parts) if parts else np.zeros(shape, dtype)
-    scene = Scene(stack(triangles, (0, 3, 3), float), stack(material_index, 0, int), materials.list or
+    input_triangles = stack(triangles, (0, 3, 3), float)
+    scene = Scene(input_triangles, stack(material_index, 0, int), materials.list or
                   [DEFAULT_MATERIAL], lights=lights, world=_world(context.scene, materials.warnings),
                   object_index=stack(object_index, 0, int), object_names=names,
                   casts_only=stack(casts_only, 0, bool))
-    return Export(scene, objects, materials.warnings)
+    return Export(scene, objects, input_triangles, materials.warnings)
 
 
 def _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials) -> None:
@@ -115,7 +121,7 @@ def _same_topology(evaluated, original) -> bool:
 
 
 def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials"):
-    """World-space (t, 3, 3) triangles, global material indices (t,) and corner loops (t, 3), or None."""
+    """World-space (t, 3, 3) triangles, global material indices (t,), corner loops and vertices (t, 3), or None."""
     mesh = evaluated.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -137,7 +143,7 @@ def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials"):
     if np.linalg.det(matrix[:3, :3]) < 0:  # mirrored: keep the winding consistent with Blender's normals
         corners, loops = corners[:, ::-1], loops[:, ::-1]
     table = np.array([materials.index(s.material) for s in evaluated.material_slots] or [materials.index(None)])
-    return world[corners], table[np.clip(slot, 0, len(table) - 1)], loops
+    return world[corners], table[np.clip(slot, 0, len(table) - 1)], loops, corners
 
 
 class _Materials:

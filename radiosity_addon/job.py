@@ -1,53 +1,99 @@
 """One bake, in three steps shared by the operator (interactive and execute()) and the command line:
 
-1. ``prepare`` (main thread): export the evaluated scene and check the outputs can be written;
-2. ``solve`` (any thread, no bpy): the core solve, with progress and cancel callables;
-3. ``apply`` (main thread): write the results and return the report's per-object part.
+1. ``prepare`` (main thread): export the evaluated scene, plan the lightmap atlas, check the outputs can be written;
+2. ``solve`` (any thread, no bpy): the core solve and the lightmap texels, with progress and cancel callables;
+3. ``apply`` (main thread): write the results and return the report.
 """
 from __future__ import annotations
 
 import time
+import tomllib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from ..core import SceneError
 from .export import Export, export_scene
-from .presets import UserSettings, bake_settings
+from .lightmaps import LightmapOptions, LightmapPlan, plan_lightmap, write_lightmap
+from .presets import UserSettings, bake_settings, lightmap_settings
 from .writeback import check_attribute_name_free, write_radiosity_mesh, write_vertex_colors
+
+TARGETS = ("VERTEX_COLORS", "LIGHTMAP", "BOTH")
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What a bake writes: target VERTEX_COLORS, LIGHTMAP or BOTH; the colour attribute's name; the radiosity
+    mesh object; the lightmap's options and folder ("" = pack into the .blend)."""
+
+    target: str = "VERTEX_COLORS"
+    attribute: str = "Radiosity"
+    create_radiosity_mesh: bool = False
+    lightmap: LightmapOptions = LightmapOptions()
+    lightmap_folder: str = ""
+
+    @property
+    def vertex_colors(self) -> bool:
+        return self.target in ("VERTEX_COLORS", "BOTH")
+
+    @property
+    def lightmaps(self) -> bool:
+        return self.target in ("LIGHTMAP", "BOTH")
 
 
 @dataclass
 class Job:
     export: Export
     settings: object
-    attribute: str
-    create_radiosity_mesh: bool
+    outputs: Outputs
+    lightmap_settings: object = None
+    lightmap_plan: LightmapPlan | None = None
     started: float = field(default_factory=time.perf_counter)
     solution: object = None
+    lightmap: object = None
 
 
-def prepare(context, user: UserSettings, attribute: str, create_radiosity_mesh: bool) -> Job:
+def prepare(context, user: UserSettings, outputs: Outputs) -> Job:
+    if outputs.target not in TARGETS:
+        raise SceneError(f"Target must be one of {', '.join(TARGETS)}, got '{outputs.target}'.")
     export = export_scene(context)
     settings = bake_settings(user, export.scene.size_m)
-    if not any(item.writable for item in export.objects) and not create_radiosity_mesh:
+    if not any(item.writable for item in export.objects) and not outputs.create_radiosity_mesh:
         raise SceneError("Nothing to bake: no visible mesh object is set to 'Bake'.")
-    check_attribute_name_free(export, attribute)
-    return Job(export, settings, attribute, create_radiosity_mesh)
+    if outputs.vertex_colors:
+        check_attribute_name_free(export, outputs.attribute)
+    job = Job(export, settings, outputs)
+    if outputs.lightmaps:
+        job.lightmap_settings, density = lightmap_settings(user, export.scene.size_m)
+        job.lightmap_plan = plan_lightmap(export, outputs.lightmap, density)
+    return job
 
 
 def solve(job: Job, progress, cancelled) -> None:
     from ..core import bake
+    from ..core.lightmap import bake_lightmap
     job.solution = bake(job.export.scene, job.settings, progress, cancelled)
+    plan = job.lightmap_plan
+    if plan is not None:
+        job.lightmap = bake_lightmap(job.solution, plan.scene_triangle, plan.corner_uv, plan.layout.width,
+                                     plan.layout.height, job.lightmap_settings, progress, cancelled)
 
 
 def apply(job: Job) -> dict:
     """Write the outputs; returns the report (REPORT.json's contract, docs/design in the README)."""
-    objects, warnings = write_vertex_colors(job.export, job.solution, job.attribute)
-    if job.create_radiosity_mesh:
-        obj = write_radiosity_mesh(job.solution, job.attribute)
-        objects.append({"name": obj.name, "color_attribute": job.attribute, "uv_map": None, "image": None,
+    objects, warnings = [], list(job.export.warnings)
+    if job.outputs.vertex_colors:
+        written, more = write_vertex_colors(job.export, job.solution, job.outputs.attribute)
+        objects, warnings = written, warnings + more
+    if job.lightmap_plan is not None:
+        entries = write_lightmap(job.lightmap_plan, job.lightmap.light, _metadata(job), job.outputs.lightmap_folder)
+        objects = _merge(objects, entries)
+        warnings += job.lightmap_plan.warnings
+    if job.outputs.create_radiosity_mesh:
+        obj = write_radiosity_mesh(job.solution, job.outputs.attribute)
+        objects.append({"name": obj.name, "color_attribute": job.outputs.attribute, "uv_map": None, "image": None,
                         "resolution": None})
     solution = job.solution
-    return {
+    report = {
         "objects": objects,
         "seconds": time.perf_counter() - job.started,
         "timings": solution.seconds,
@@ -58,5 +104,35 @@ def apply(job: Job) -> dict:
         "dropped_triangles": job.export.scene.dropped_triangles,
         "settings": job.settings.as_dict(),
         "units": "irradiance / pi (Cycles Diffuse bake, Direct + Indirect, no Color), scene-linear",
-        "warnings": job.export.warnings + warnings,
+        "warnings": warnings,
     }
+    if job.lightmap is not None:
+        report["lightmap"] = {"texels": job.lightmap.texel_count, "moved_texels": job.lightmap.moved_texels,
+                              "texels_per_metre": job.lightmap_plan.layout.texels_per_metre,
+                              "timings": job.lightmap.seconds, "settings": vars(job.lightmap_settings).copy()}
+    return report
+
+
+def _merge(vertex_entries: list[dict], lightmap_entries: list[dict]) -> list[dict]:
+    """One report entry per object, with its colour attribute and its lightmap."""
+    by_name = {entry["name"]: entry for entry in vertex_entries}
+    for entry in lightmap_entries:
+        if entry["name"] in by_name:
+            by_name[entry["name"]].update({k: v for k, v in entry.items() if k != "color_attribute"})
+        else:
+            by_name[entry["name"]] = entry
+    return list(by_name.values())
+
+
+def _metadata(job: Job) -> dict:
+    return {"Software": f"Radiosity Baker {_version()}",
+            "radiosity:units": "irradiance / pi (W m^-2 sr^-1), scene-linear; Cycles Diffuse bake, no Color",
+            "radiosity:settings": repr(job.settings.as_dict()),
+            "radiosity:lightmap": repr(vars(job.lightmap_settings))}
+
+
+def _version() -> str:
+    """The extension's version, from blender_manifest.toml beside this package."""
+    manifest = Path(__file__).resolve().parents[1] / "blender_manifest.toml"
+    with open(manifest, "rb") as handle:
+        return tomllib.load(handle)["version"]

@@ -14,7 +14,7 @@ STATUS = {"running": False, "fraction": 0.0, "message": "", "cancel": False, "er
 
 def _user_args(context):
     settings = context.scene.radiosity
-    return settings.user_settings(), settings.attribute_name, settings.create_radiosity_mesh
+    return settings.user_settings(), settings.outputs()
 
 
 def _summary(report: dict) -> str:
@@ -102,7 +102,12 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
             STATUS["summary"] = f"Bake failed: {error}"
             self.report({"ERROR"}, STATUS["summary"])
             return {"CANCELLED"}
-        report = bake_job.apply(self._job)
+        try:
+            report = bake_job.apply(self._job)
+        except _errors() as error:
+            STATUS["summary"] = f"Bake failed: {error}"
+            self.report({"ERROR"}, STATUS["summary"])
+            return {"CANCELLED"}
         for warning in report["warnings"]:
             self.report({"WARNING"}, warning)
         STATUS["summary"] = _summary(report)

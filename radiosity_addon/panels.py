@@ -22,7 +22,17 @@ class RENDER_PT_radiosity(bpy.types.Panel):
         for name in ("element_size", "patch_size", "adaptive_passes", "residual", "light_samples"):
             column.prop(settings, name)
         layout.prop(settings, "form_factors")
-        layout.prop(settings, "attribute_name")
+        layout.prop(settings, "target")
+        if settings.target != "LIGHTMAP":
+            layout.prop(settings, "attribute_name")
+        if settings.target != "VERTEX_COLORS":
+            box = layout.column(heading="Lightmap")
+            for name in ("texels_per_metre", "lightmap_resolution", "lightmap_padding", "lightmap_uv_map",
+                         "lightmap_image", "lightmap_folder", "lightmap_half"):
+                box.prop(settings, name)
+            gather = box.column()
+            gather.enabled = settings.quality == "CUSTOM"
+            gather.prop(settings, "gather_samples")
         layout.prop(settings, "create_radiosity_mesh")
         if STATUS["running"]:
             if hasattr(layout, "progress"):
@@ -50,6 +60,7 @@ class OBJECT_PT_radiosity(bpy.types.Panel):
     def draw(self, context):
         self.layout.use_property_split = True
         self.layout.prop(context.object.radiosity, "mode")
+        self.layout.prop(context.object.radiosity, "lightmap_scale")
 
 
 classes = (RENDER_PT_radiosity, OBJECT_PT_radiosity)

@@ -12,6 +12,14 @@ PRESETS = {
     "HIGH": (64, 10, 2, 0.002, 6),
 }
 ADAPTIVE_THRESHOLD = 0.3
+# Lightmaps per preset: (texels across the scene's diagonal, indirect light method, gather rays per texel edge).
+# Medium interpolates the indirect light: on the Cornell box it measured closer to Cycles than an 8 x 8 gather
+# (docs/benchmarks.md), whose rays pick up the hot elements on the rim of the light's opening.
+LIGHTMAP_PRESETS = {
+    "DRAFT": (128, "interpolate", 1),
+    "MEDIUM": (256, "interpolate", 1),
+    "HIGH": (512, "gather", 16),
+}
 
 
 @dataclass(frozen=True)
@@ -26,6 +34,8 @@ class UserSettings:
     light_samples_per_edge: int = 4
     form_factors: str = "raycast"
     seed: int = 0
+    gather_samples_per_edge: int = 8
+    texels_per_metre: float = 0.0
 
 
 def bake_settings(user: UserSettings, scene_size_m: float):
@@ -40,3 +50,17 @@ def bake_settings(user: UserSettings, scene_size_m: float):
     return BakeSettings(element_size_m=element, patch_size_m=max(patch, element), adaptive_passes=passes,
                         residual_threshold=residual, light_samples_per_edge=samples, form_factors=user.form_factors,
                         adaptive_threshold=ADAPTIVE_THRESHOLD, min_element_size_m=element / 4, seed=user.seed)
+
+
+def lightmap_settings(user: UserSettings, scene_size_m: float):
+    """(core.LightmapSettings, default texels per metre) for the user's choice; CUSTOM gathers with the user's
+    sample count at the user's density (or the Medium density when it is 0)."""
+    from ..core.lightmap import LightmapSettings
+    across, method, samples = LIGHTMAP_PRESETS.get(user.quality, LIGHTMAP_PRESETS["MEDIUM"])
+    density = across / scene_size_m
+    if user.quality not in LIGHTMAP_PRESETS:
+        method, samples = "gather", user.gather_samples_per_edge
+        density = user.texels_per_metre or density
+    subtexel = 1 if user.quality == "DRAFT" else 2
+    return LightmapSettings(indirect=method, gather_samples_per_edge=samples, subtexel_samples_per_edge=subtexel,
+                            seed=user.seed), density

@@ -35,10 +35,43 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
     create_radiosity_mesh: BoolProperty(name="Create Radiosity Mesh", default=False,
                                         description="Also add an object holding the adaptive element mesh and "
                                                     "its light")
+    target: EnumProperty(name="Target", default="VERTEX_COLORS", items=[
+        ("VERTEX_COLORS", "Vertex Colors", "A colour attribute per mesh corner"),
+        ("LIGHTMAP", "Lightmap", "A lightmap texture on a new UV map (sharp shadows at any mesh density)"),
+        ("BOTH", "Both", "Vertex colours and a lightmap")])
+    texels_per_metre: FloatProperty(name="Texels per Metre", default=0.0, min=0.0, soft_max=1024.0,
+                                    description="Lightmap density; 0 follows the quality preset (Medium: 256 "
+                                                "texels across the scene)")
+    lightmap_resolution: IntProperty(name="Resolution", default=0, min=0, max=8192,
+                                     description="Square lightmap size in texels; 0 sizes it from the density")
+    lightmap_padding: IntProperty(name="Padding", default=4, min=1, max=32,
+                                  description="Texels between charts, filled by dilation so filtering and "
+                                              "mipmaps do not bleed")
+    gather_samples: IntProperty(name="Gather Samples", default=8, min=1, max=32,
+                                description="Final-gather rays per texel: this number squared (Custom quality)")
+    lightmap_uv_map: StringProperty(name="UV Map", default="Lightmap",
+                                    description="Name of the UV map the bake makes (existing UV maps are never "
+                                                "changed)")
+    lightmap_image: StringProperty(name="Image", default="Radiosity Lightmap",
+                                   description="Name of the lightmap image (and of its .exr file)")
+    lightmap_folder: StringProperty(name="Folder", default="//", subtype="DIR_PATH",
+                                    description="Where the .exr goes (// is the .blend's folder; an unsaved "
+                                                ".blend gets the image packed)")
+    lightmap_half: BoolProperty(name="Half Float", default=True,
+                                description="16-bit float EXR (smaller); off for 32-bit float")
 
     def user_settings(self) -> UserSettings:
         return UserSettings(self.quality, self.element_size, self.patch_size, self.adaptive_passes, self.residual,
-                            self.light_samples, self.form_factors)
+                            self.light_samples, self.form_factors, gather_samples_per_edge=self.gather_samples,
+                            texels_per_metre=self.texels_per_metre)
+
+    def outputs(self):
+        from .job import Outputs
+        from .lightmaps import LightmapOptions, lightmap_folder
+        options = LightmapOptions(self.lightmap_uv_map, self.lightmap_image, self.texels_per_metre or None,
+                                  self.lightmap_resolution or None, self.lightmap_padding, half=self.lightmap_half)
+        return Outputs(self.target, self.attribute_name, self.create_radiosity_mesh, options,
+                       lightmap_folder(self.lightmap_folder))
 
 
 class RadiosityObjectSettings(bpy.types.PropertyGroup):
@@ -46,6 +79,8 @@ class RadiosityObjectSettings(bpy.types.PropertyGroup):
         ("BAKE", "Bake", "Receives, reflects and casts light, and gets baked"),
         ("SHADOW_ONLY", "Shadow Only", "Casts shadows but is not solved or baked"),
         ("EXCLUDE", "Exclude", "Ignored by the bake")])
+    lightmap_scale: FloatProperty(name="Lightmap Scale", default=1.0, min=0.01, soft_max=8.0,
+                                  description="Multiplies this object's lightmap texel density")
 
 
 classes = (RadiositySceneSettings, RadiosityObjectSettings)

@@ -67,3 +67,55 @@ def add_light(kind: str, location, energy: float, **data):
     for key, value in data.items():
         setattr(light.data, key, value)
     return light
+
+
+def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples: int, margin: int = 0):
+    """Cycles' Diffuse bake (Direct + Indirect, no Color) of the objects into one new float image on the given UV
+    map; returns (height, width, 3) light (row 0 at the bottom) and the seconds the bake took. The image node is
+    added to (and removed from) every material of the objects."""
+    import time
+
+    import bpy
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.seed = 1
+    scene.render.bake.margin = margin
+    image = bpy.data.images.new("cycles bake", width, height, alpha=False, float_buffer=True)
+    nodes = []
+    for material in {slot.material for obj in objects for slot in obj.material_slots if slot.material}:
+        node = material.node_tree.nodes.new("ShaderNodeTexImage")
+        node.image = image
+        material.node_tree.nodes.active = node
+        nodes.append((material, node))
+    for obj in scene.objects:
+        obj.select_set(obj in objects)
+    bpy.context.view_layer.objects.active = objects[0]
+    started = time.perf_counter()
+    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT", "INDIRECT"}, uv_layer=uv_map, margin=margin)
+    seconds = time.perf_counter() - started
+    for material, node in nodes:
+        material.node_tree.nodes.remove(node)
+    pixels = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    bpy.data.images.remove(image)
+    return pixels.reshape(height, width, 4)[..., :3].astype(np.float64), seconds
+
+
+def uv_coverage(objects, uv_map: str, width: int, height: int) -> np.ndarray:
+    """(height, width) texels whose centre lies strictly inside a triangle of the objects' UV map (what Cycles
+    bakes; xatlas puts chart borders through texel centres, which Cycles' rasteriser may leave to neither side)."""
+    from radiosity_baker.core.texels import rasterize
+    covered = np.zeros(width * height, dtype=bool)
+    for obj in objects:
+        mesh = obj.data
+        mesh.calc_loop_triangles()
+        loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+        mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
+        texels = rasterize(uv.reshape(-1, 2)[loops].reshape(-1, 3, 2).astype(np.float64), width, height)
+        strictly = texels.centre_inside & (texels.barycentric.min(axis=1) > 1e-4)
+        covered[texels.pixel[strictly]] = True
+    return covered.reshape(height, width)

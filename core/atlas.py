@@ -1,0 +1,123 @@
+"""Lightmap atlases: each mesh is cut into charts and packed into its own block by xatlas; blocks are then
+packed side by side into one atlas image.
+
+A block per mesh (rather than one xatlas pack over all meshes) lets objects that share mesh data (linked
+duplicates) keep one UV layout yet own separate lightmap space: each user of the mesh gets its own copy of the
+block, and the UV map stores the first user's placement while the others carry an offset.
+
+UVs follow Blender's convention: (0, 0) is the lower-left corner of the image, texel (x, y) has its centre at
+((x + 0.5) / width, (y + 0.5) / height).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .scene import SceneError
+
+
+@dataclass
+class ChartBlock:
+    """One mesh unwrapped: (t, 3, 2) corner UVs in texels inside a ``width`` x ``height`` block."""
+
+    corner_texels: np.ndarray
+    width: int
+    height: int
+
+
+def unwrap(positions_m: np.ndarray, triangle_vertices: np.ndarray, texels_per_metre: float,
+           padding_texels: int) -> ChartBlock:
+    """Charts of a triangle mesh (world-scale (V, 3) positions, (t, 3) vertex indices) packed by xatlas at the
+    given texel density, with ``padding_texels`` between charts and around the block's border."""
+    import xatlas
+    atlas = xatlas.Atlas()
+    atlas.add_mesh(np.ascontiguousarray(positions_m, dtype=np.float32),
+                   np.ascontiguousarray(triangle_vertices, dtype=np.uint32))
+    pack = xatlas.PackOptions()
+    pack.texels_per_unit = float(texels_per_metre)
+    pack.padding = int(padding_texels)
+    pack.bilinear = True
+    pack.resolution = 0
+    atlas.generate(xatlas.ChartOptions(), pack)
+    if atlas.atlas_count != 1:
+        raise SceneError(f"The lightmap charts of one mesh need {atlas.atlas_count} atlases; lower the texel "
+                         "density.")
+    _, indices, uvs = atlas[0]
+    # xatlas keeps the input's triangle order; pad the block so charts never touch a neighbouring block.
+    width, height = atlas.width + 2 * padding_texels, atlas.height + 2 * padding_texels
+    corner_texels = uvs[indices].astype(np.float64) * [atlas.width, atlas.height] + padding_texels
+    return ChartBlock(corner_texels, width, height)
+
+
+def pack_blocks(sizes: np.ndarray, max_size: int) -> tuple[np.ndarray, int, int]:
+    """Shelf packing of (n, 2) block sizes (width, height, texels): (n, 2) lower-left offsets, atlas width and
+    height. Blocks go tallest first, in rows as wide as the widest block or the square root of the total area;
+    raises SceneError if the atlas would exceed ``max_size`` on a side."""
+    sizes = np.asarray(sizes, dtype=np.int64).reshape(-1, 2)
+    offsets = np.zeros_like(sizes)
+    if len(sizes) == 0:
+        return offsets, 0, 0
+    row_width = max(int(sizes[:, 0].max()), int(np.ceil(np.sqrt((sizes[:, 0] * sizes[:, 1]).sum()))))
+    x = y = row_height = width = 0
+    for index in np.lexsort((np.arange(len(sizes)), -sizes[:, 1])):  # one step per object, not per texel
+        w, h = sizes[index]
+        if x + w > row_width:
+            x, y, row_height = 0, y + row_height, 0
+        offsets[index] = (x, y)
+        x, row_height, width = x + w, max(row_height, h), max(width, x + w)
+    height = y + row_height
+    if max(width, height) > max_size:
+        raise SceneError(f"The lightmap atlas would be {width} x {height} texels, over the maximum of {max_size}; "
+                         "lower the texel density or raise the maximum size.")
+    return offsets, int(width), int(height)
+
+
+@dataclass
+class AtlasLayout:
+    """Where every object's triangles sit in the atlas: per object (t, 3, 2) corner UVs in [0, 1]."""
+
+    corner_uv: list[np.ndarray]
+    width: int
+    height: int
+    texels_per_metre: float
+
+
+def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: list[int], padding_texels: int,
+                 max_size: int, texels_per_metre: float | None = None, resolution: int | None = None) -> AtlasLayout:
+    """Unwrap each mesh once and give each object a copy of its mesh's block.
+
+    ``meshes``: (positions_m, triangle_vertices) per distinct mesh; ``mesh_of_object``: the mesh of each object.
+    Either the density is given, or a square ``resolution`` that the density is chosen to fill (largest density,
+    in steps of 10%, whose packing fits)."""
+    if texels_per_metre is not None:
+        return _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre)
+    if not resolution or resolution <= 0:
+        raise SceneError("Give the lightmap either a texel density or a resolution.")
+    area_m2 = sum(_area(positions, triangles) for positions, triangles in
+                  (meshes[index] for index in mesh_of_object))
+    density = np.sqrt(0.5 * resolution ** 2 / max(area_m2, 1e-12))
+    while density * np.sqrt(area_m2) >= 1.0:
+        try:
+            layout = _layout(meshes, mesh_of_object, padding_texels, resolution, density)
+        except SceneError:
+            density *= 0.9
+            continue
+        to_canvas = np.array([layout.width, layout.height]) / resolution
+        return AtlasLayout([uv * to_canvas for uv in layout.corner_uv], resolution, resolution, density)
+    raise SceneError(f"The objects do not fit a {resolution} x {resolution} lightmap with {padding_texels} texels "
+                     "of padding; raise the resolution.")
+
+
+def _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre) -> AtlasLayout:
+    blocks = [unwrap(positions, triangles, texels_per_metre, padding_texels) for positions, triangles in meshes]
+    sizes = np.array([(blocks[m].width, blocks[m].height) for m in mesh_of_object])
+    offsets, width, height = pack_blocks(sizes, max_size)
+    corner_uv = [(blocks[m].corner_texels + offset) / [width, height] for m, offset in zip(mesh_of_object, offsets)]
+    return AtlasLayout(corner_uv, width, height, float(texels_per_metre))
+
+
+def _area(positions: np.ndarray, triangles: np.ndarray) -> float:
+    corners = positions[triangles]
+    return float(0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]),
+                                      axis=1).sum())

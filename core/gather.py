@@ -1,0 +1,57 @@
+"""Final gather: indirect light at points by looking up the radiosity solution where rays from them land.
+
+Radiosity paper, section 10 (two-pass methods): the view-independent solution supplies the light leaving every
+surface; a per-point gather over the hemisphere turns it into irradiance at points much finer than the elements.
+With cosine-weighted directions (pdf cos(theta) / pi) the indirect irradiance is
+
+    E(x) = integral of L(hit) cos(theta) dw  ~  (pi / N) sum L(hit)  =  (1 / N) sum B_r(hit),
+
+where B_r = rho H is the reflected radiosity at the hit (a diffuse surface's radiance is B / pi). Emission and
+the world are left out: core.direct adds them exactly, with shadow rays. Back faces and unsolved ("shadow only")
+surfaces return nothing. Directions are stratified (s x s jittered cells, Malley's method) with a seeded shift
+per point, so the result is deterministic.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .formfactor import tangent_frames
+from .progress import BakeCancelled, never_cancelled
+from .raycast import RayCaster
+from .sampling import cosine_hemisphere, stratified_square
+from .scene import triangle_unit_normals
+
+RAYS_PER_CHUNK = 1 << 20
+
+
+def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.ndarray, samples_per_edge: int,
+                 offset_m: float, seed: int, cancelled=never_cancelled, progress=None) -> np.ndarray:
+    """(m, 3) indirect light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by its
+    rays) with (m, 3) unit normals, from s^2 gather rays each."""
+    rays = samples_per_edge ** 2
+    step = max(1, RAYS_PER_CHUNK // rays)
+    light = np.zeros((len(points), 3))
+    for start in range(0, len(points), step):
+        if cancelled():
+            raise BakeCancelled("Bake cancelled during the final gather.")
+        stop = min(start + step, len(points))
+        light[start:stop] = _gather_chunk(solution, caster, points[start:stop], normals[start:stop],
+                                          samples_per_edge, offset_m, seed + start)
+        if progress is not None:
+            progress(stop / len(points), f"Final gather: {stop} of {len(points)} texels")
+    return light
+
+
+def _gather_chunk(solution, caster, points, normals, samples_per_edge, offset_m, seed):
+    count, rays = len(points), samples_per_edge ** 2
+    local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
+    directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals)).reshape(-1, 3)
+    which = np.arange(rays) % points.shape[1]
+    origins = (points[:, which, :] + offset_m * normals[:, None, :]).reshape(-1, 3)
+    hit, bary = caster.first_hit(origins, directions)
+    triangles = solution.scene.triangles
+    front = hit >= 0
+    front[front] = (triangle_unit_normals(triangles[hit[front]]) * directions[front]).sum(axis=1) < 0
+    radiosity = np.zeros((len(hit), 3))
+    radiosity[front] = np.nan_to_num(solution.reflected_radiosity(hit[front], bary[front]))
+    return radiosity.reshape(count, rays, 3).mean(axis=1) / np.pi

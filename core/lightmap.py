@@ -1,0 +1,140 @@
+"""Lightmap textures from a solved scene: per-texel direct light by shadow rays plus indirect light from the
+radiosity solution (final gather, or interpolation between elements for drafts), then dilation into the padding.
+
+Values are irradiance / pi, scene-linear: what Cycles' Diffuse bake (Direct + Indirect, no Color) writes into an
+image on the same UV map (docs/units.md). Images are (height, width, 3) float32 with row 0 at the bottom, as
+Blender stores pixels.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .gather import final_gather
+from .progress import BakeCancelled, Progress, never_cancelled, no_progress
+from .scene import SceneError, triangle_areas
+from .texels import Texels, inset, push_out_of_geometry, rasterize, sample_points, subtexel_barycentrics
+
+INDIRECT_METHODS = ("gather", "interpolate")
+
+
+@dataclass(frozen=True)
+class LightmapSettings:
+    """indirect: "gather" (rays from each texel look up the solution) or "interpolate" (element corners: fast,
+    softer). gather_samples_per_edge: s, so s^2 gather rays per texel. subtexel_samples_per_edge: k, so direct
+    light is averaged over k x k points of each texel's footprint (its shadow rays per point divided by k per
+    edge, so the ray count stays the same). dilation_texels: how far values are grown into the empty texels
+    around charts. seed: of the stratified gather directions."""
+
+    indirect: str = "gather"
+    gather_samples_per_edge: int = 8
+    subtexel_samples_per_edge: int = 2
+    dilation_texels: int = 4
+    seed: int = 0
+
+    def __post_init__(self):
+        if self.indirect not in INDIRECT_METHODS:
+            raise SceneError(f"Setting 'indirect' must be one of {INDIRECT_METHODS}, got '{self.indirect}'.")
+        if min(self.gather_samples_per_edge, self.subtexel_samples_per_edge) < 1 or \
+                min(self.dilation_texels, self.seed) < 0:
+            raise SceneError("Lightmap settings: sample counts must be positive, dilation and seed not negative.")
+
+
+@dataclass
+class Lightmap:
+    """light: (height, width, 3) float32; covered: (height, width) texels a triangle covers (before dilation);
+    moved_texels: sample points pushed out of geometry; seconds: time per phase."""
+
+    light: np.ndarray
+    covered: np.ndarray
+    texel_count: int
+    moved_texels: int
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int, height: int,
+                  settings: LightmapSettings = LightmapSettings(), progress: Progress = no_progress,
+                  cancelled=never_cancelled) -> Lightmap:
+    """Light the texels of one atlas image: ``scene_triangle`` (t,) are the solved scene triangles it holds and
+    ``corner_uv`` (t, 3, 2) their UVs in [0, 1]."""
+    started = time.perf_counter()
+    seconds = {}
+    texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
+    tri = np.asarray(scene_triangle, dtype=np.int64)[texels.triangle]
+    scene = solution.scene
+    direct, offset = solution.direct, solution.direct.offset_m
+    points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels, 4 * offset)
+    reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
+    points, moved = push_out_of_geometry(direct.caster, scene.triangles, points, normals, reach, offset)
+    sub_points = _subtexel_points(scene.triangles[tri], texels, corner_uv, settings.subtexel_samples_per_edge,
+                                  points, moved, 4 * offset)
+    seconds["texels"] = time.perf_counter() - started
+    if cancelled():
+        raise BakeCancelled("Bake cancelled before lighting the lightmap.")
+    progress(0.0, f"Direct light on {len(points)} texels")
+    light = _direct_light(solution, sub_points, normals, tri, texels.barycentric, settings.subtexel_samples_per_edge)
+    seconds["direct"] = time.perf_counter() - started - sum(seconds.values())
+    if settings.indirect == "gather":
+        light += final_gather(solution, direct.caster, sub_points, normals, settings.gather_samples_per_edge,
+                              offset, settings.seed, cancelled, progress)
+    else:
+        light += solution.indirect_light(tri, texels.barycentric)
+    seconds["indirect"] = time.perf_counter() - started - sum(seconds.values())
+    light *= scene.reflectance[scene.material_index[tri]] > 0  # Cycles' "no Color" divides by albedo: black stays black
+    image = np.zeros((height * width, 3))
+    image[texels.pixel] = np.nan_to_num(light)
+    covered = np.zeros(height * width, dtype=bool)
+    covered[texels.pixel] = True
+    image, _ = dilate(image.reshape(height, width, 3), covered.reshape(height, width), settings.dilation_texels)
+    return Lightmap(image.astype(np.float32), covered.reshape(height, width), len(texels.pixel), int(moved.sum()),
+                    seconds)
+
+
+def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, points, moved,
+                     inset_m) -> np.ndarray:
+    """(m, k^2, 3) points over each texel's footprint (inset from the triangle's edges); texels pushed out of
+    geometry keep their one moved point."""
+    bary = subtexel_barycentrics(texels, corner_uv, samples_per_edge)
+    sub_points = inset(np.einsum("mqc,mck->mqk", bary, triangles_m), triangles_m.mean(axis=1)[:, None, :], inset_m)
+    keep = moved | ~texels.centre_inside
+    sub_points[keep] = points[keep, None, :]
+    return sub_points
+
+
+def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge) -> np.ndarray:
+    """Direct light averaged over the sub-texel points, with 1/k the shadow rays per edge at each."""
+    q = sub_points.shape[1]
+    light_samples = max(1, int(round(solution.direct.samples_per_edge / samples_per_edge)))
+    light = solution.direct_light(sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0), np.repeat(tri, q),
+                                  np.repeat(barycentric, q, axis=0), light_samples)
+    return light.reshape(-1, q, 3).mean(axis=1)
+
+
+def texel_size_m(triangles_m: np.ndarray, corner_uv: np.ndarray, width: int, height: int) -> np.ndarray:
+    """(m,) edge length in metres of one texel on each triangle (world area per texel area, square-rooted)."""
+    texel_corners = np.concatenate([corner_uv * [width, height], np.zeros(corner_uv.shape[:2] + (1,))], axis=2)
+    texel_area = np.maximum(triangle_areas(texel_corners), 1e-12)
+    return np.sqrt(triangle_areas(triangles_m) / texel_area)
+
+
+def dilate(image: np.ndarray, filled: np.ndarray, passes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Grow values into empty texels: each pass gives every empty texel with filled 8-neighbours their mean."""
+    image, filled = image.copy(), filled.copy()
+    height, width = filled.shape
+    for _ in range(passes):
+        padded = np.pad(image * filled[..., None], ((1, 1), (1, 1), (0, 0)))
+        weight = np.pad(filled.astype(np.float64), 1)
+        total = np.zeros_like(image)
+        count = np.zeros(filled.shape)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):  # nine shifted views of the whole image, not a loop over texels
+                total += padded[1 + dy:1 + dy + height, 1 + dx:1 + dx + width]
+                count += weight[1 + dy:1 + dy + height, 1 + dx:1 + dx + width]
+        grow = ~filled & (count > 0)
+        if not grow.any():
+            break
+        image[grow] = total[grow] / count[grow, None]
+        filled |= grow
+    return image, filled

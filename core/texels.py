@@ -1,0 +1,191 @@
+"""Texels of a lightmap: which triangle each texel belongs to, and the surface point it samples.
+
+Rasterisation is conservative: a texel whose centre lies in a triangle takes that triangle; a texel that a
+triangle only partly covers (its centre outside every triangle, but within half a texel diagonal of one) takes
+the nearest point of the nearest triangle, so chart borders never read black under bilinear filtering.
+
+Sample points sit on the surface and are then checked for lying inside other geometry (a floor texel under a
+box standing on it, a wall texel behind a junction): short rays along the surface that hit a back face first move
+the point out through that face (the approach of lightmappers such as Bakery), so no light leaks through
+contacts and no dark blotches appear beside them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .formfactor import tangent_frames
+from .raycast import RayCaster
+from .scene import triangle_unit_normals
+
+CONSERVATIVE_REACH_TEXELS = 0.5 * np.sqrt(2.0)
+CANDIDATES_PER_CHUNK = 4_000_000
+
+
+@dataclass
+class Texels:
+    """Covered texels of a ``width`` x ``height`` image (row 0 at the bottom, as Blender stores pixels).
+
+    pixel: (m,) flat index y * width + x; triangle: (m,) index into the rasterised triangles; barycentric: (m, 3)
+    of the sample point in that triangle; centre_inside: (m,) the texel centre lies in the triangle (else the
+    point is the triangle's nearest point to the centre).
+    """
+
+    pixel: np.ndarray
+    triangle: np.ndarray
+    barycentric: np.ndarray
+    centre_inside: np.ndarray
+    width: int
+    height: int
+
+
+def rasterize(corner_uv: np.ndarray, width: int, height: int) -> Texels:
+    """Conservative rasterisation of (t, 3, 2) UV triangles (UV in [0, 1]) into texels."""
+    corners = corner_uv * [width, height] - 0.5  # texel centres at integer coordinates
+    lower = np.ceil(corners.min(axis=1) - 0.5 - 1e-9).astype(np.int64)
+    upper = np.floor(corners.max(axis=1) + 0.5 + 1e-9).astype(np.int64)
+    lower, upper = np.maximum(lower, 0), np.minimum(upper, [width - 1, height - 1])
+    extent = np.maximum(upper - lower + 1, 0)
+    counts = extent[:, 0] * extent[:, 1]
+    parts = []
+    for start, stop in _chunks(counts, CANDIDATES_PER_CHUNK):
+        parts.append(_candidates(corners, lower, extent, counts, start, stop, width))
+    if not parts:
+        empty = np.zeros(0, dtype=np.int64)
+        return Texels(empty, empty, np.zeros((0, 3)), np.zeros(0, dtype=bool), width, height)
+    pixel, triangle, bary, distance = (np.concatenate(p) for p in zip(*parts))
+    # One triangle per texel: centre inside first (distance 0), then the nearest; ties to the lowest triangle.
+    order = np.lexsort((triangle, distance, pixel))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = pixel[order][1:] != pixel[order][:-1]
+    keep = order[first]
+    return Texels(pixel[keep], triangle[keep], bary[keep], distance[keep] == 0.0, width, height)
+
+
+def _chunks(counts: np.ndarray, budget: int):
+    """Triangle ranges whose candidate texels stay under ``budget`` (a huge triangle gets a range of its own)."""
+    ends = np.cumsum(counts)
+    start = 0
+    while start < len(counts):
+        base = ends[start - 1] if start else 0
+        stop = max(start + 1, int(np.searchsorted(ends, base + budget, side="right")))
+        yield start, stop
+        start = stop
+
+
+def _candidates(corners, lower, extent, counts, start, stop, width):
+    """Texels in each triangle's bounding box (grown by half a texel) with their nearest point and distance."""
+    triangle = np.repeat(np.arange(start, stop), counts[start:stop])
+    within = np.arange(len(triangle)) - np.repeat(np.cumsum(counts[start:stop]) - counts[start:stop],
+                                                   counts[start:stop])
+    span = extent[triangle, 0]
+    x = lower[triangle, 0] + within % np.maximum(span, 1)
+    y = lower[triangle, 1] + within // np.maximum(span, 1)
+    point = np.stack([x, y], axis=1).astype(np.float64)
+    bary, distance = _nearest_point(point, corners[triangle])
+    near = distance <= CONSERVATIVE_REACH_TEXELS
+    return y[near] * width + x[near], triangle[near], bary[near], distance[near]
+
+
+def _nearest_point(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Barycentrics of the nearest point of each 2D triangle to each point, and the distance (0 inside)."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    e1, e2, rel = b - a, c - a, points - a
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    safe = np.where(np.abs(det) > 1e-12, det, 1.0)
+    u = (rel[:, 0] * e2[:, 1] - rel[:, 1] * e2[:, 0]) / safe
+    v = (e1[:, 0] * rel[:, 1] - e1[:, 1] * rel[:, 0]) / safe
+    bary = np.stack([1.0 - u - v, u, v], axis=1)
+    inside = (np.abs(det) > 1e-12) & (bary >= -1e-9).all(axis=1)
+    distance = np.full(len(points), np.inf)
+    best = np.zeros_like(bary)
+    for i, j in ((0, 1), (1, 2), (2, 0)):  # three edges, vectorised over all points
+        start, edge = triangles[:, i], triangles[:, j] - triangles[:, i]
+        length2 = (edge ** 2).sum(axis=1)
+        t = np.clip(((points - start) * edge).sum(axis=1) / np.maximum(length2, 1e-300), 0.0, 1.0)
+        gap = np.linalg.norm(start + t[:, None] * edge - points, axis=1)
+        closer = gap < distance
+        distance[closer] = gap[closer]
+        best[closer] = 0.0
+        best[closer, i], best[closer, j] = 1.0 - t[closer], t[closer]
+    distance[inside] = 0.0
+    best[inside] = np.clip(bary[inside], 0.0, 1.0)
+    return best / best.sum(axis=1, keepdims=True), distance
+
+
+def sample_points(triangles_m: np.ndarray, texels: Texels, inset_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(m, 3) world points and unit normals of the texels in their (t, 3, 3) world triangles, moved ``inset_m``
+    towards the triangle's centroid (see ``inset``)."""
+    corners = triangles_m[texels.triangle]
+    points = np.einsum("mc,mck->mk", texels.barycentric, corners)
+    return inset(points, corners.mean(axis=1), inset_m), triangle_unit_normals(corners)
+
+
+def inset(points: np.ndarray, centroids: np.ndarray, distance_m: float) -> np.ndarray:
+    """Points moved ``distance_m`` (at most half way) towards their triangle's centroid: a point on a crease
+    (a texel centre on the edge where a floor meets a wall) must not start its rays inside the other surface,
+    nor sit in the plane of a neighbouring emitter, where the point-to-polygon factor degenerates."""
+    towards = centroids - points
+    length = np.linalg.norm(towards, axis=-1, keepdims=True)
+    return points + towards * np.minimum(distance_m, 0.5 * length) / np.maximum(length, 1e-300)
+
+
+def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,
+                         normals: np.ndarray, reach_m: float, offset_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Move points that lie inside closed geometry out through the nearest back face along the surface.
+
+    Eight rays per point in the tangent plane, ``reach_m`` long (about a texel), start ``offset_m`` above the
+    surface (``reach_m`` a scalar or one length per point); the nearest one that hits a back face (a face turned away from the ray: the point is behind it) moves
+    the point to just past that face. Returns the points and a (m,) mask of those moved.
+    """
+    frames = tangent_frames(normals)
+    angles = np.arange(8) * np.pi / 4
+    local = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    directions = np.einsum("dk,mkj->mdj", local, frames[:, :2]).reshape(-1, 3)
+    origins = np.repeat(points + offset_m * normals, 8, axis=0)
+    hit, bary = caster.first_hit(origins, directions)
+    found = hit >= 0
+    hit_triangles = scene_triangles_m[np.maximum(hit, 0)]
+    hit_points = np.einsum("mc,mck->mk", bary, hit_triangles)
+    distance = np.where(found, np.linalg.norm(hit_points - origins, axis=1), np.inf)
+    facing = (triangle_unit_normals(hit_triangles) * directions).sum(axis=1)
+    behind = found & (facing > 0) & (distance <= np.repeat(np.broadcast_to(reach_m, len(points)), 8))
+    distance = np.where(behind, distance, np.inf).reshape(-1, 8)
+    nearest = distance.argmin(axis=1)
+    moved = np.isfinite(distance.min(axis=1))
+    step = distance[moved, nearest[moved]] + 2 * offset_m
+    out = points.copy()
+    out[moved] += directions.reshape(-1, 8, 3)[moved, nearest[moved]] * step[:, None]
+    return out, moved
+
+
+def subtexel_barycentrics(texels: Texels, corner_uv: np.ndarray, samples_per_edge: int) -> np.ndarray:
+    """(m, k^2, 3) barycentrics of k x k stratified points over each texel's footprint, folded back into the
+    triangle where they fall outside it (mirrored at the edges, as Cycles' bake jitters its samples), so a texel
+    holds its footprint's mean rather than one point's value. Texels only partly covered keep their one point."""
+    k = samples_per_edge
+    cells = (np.stack(np.meshgrid(np.arange(k), np.arange(k), indexing="ij"), -1).reshape(-1, 2) + 0.5) / k - 0.5
+    uv = corner_uv[texels.triangle] * [texels.width, texels.height]
+    e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    safe = np.where(np.abs(det) > 1e-12, det, np.inf)[:, None]
+    du = (cells[None, :, 0] * e2[:, None, 1] - cells[None, :, 1] * e2[:, None, 0]) / safe
+    dv = (e1[:, None, 0] * cells[None, :, 1] - e1[:, None, 1] * cells[None, :, 0]) / safe
+    bary = texels.barycentric[:, None, :] + np.stack([-du - dv, du, dv], axis=-1)
+    bary = _fold_into_triangle(bary)
+    bary[~texels.centre_inside] = texels.barycentric[~texels.centre_inside, None, :]
+    return bary
+
+
+def _fold_into_triangle(bary: np.ndarray) -> np.ndarray:
+    """Mirror barycentrics that went negative back across that edge (then clamp what is still outside)."""
+    for axis in range(3):
+        negative = bary[..., axis] < 0
+        excess = np.where(negative, -bary[..., axis], 0.0)
+        bary[..., axis] += 2 * excess
+        others = [a for a in range(3) if a != axis]
+        for other in others:
+            bary[..., other] -= excess
+    bary = np.clip(bary, 0.0, None)
+    return bary / bary.sum(axis=-1, keepdims=True)

@@ -1,0 +1,168 @@
+"""Lightmaps in Blender: plan the atlas from the exported objects (main thread, before the solve), then write the
+UV maps and the image after it.
+
+Each baked mesh gets a new UV map (default "Lightmap") made by xatlas; existing UV maps are never changed, and a UV
+map of that name that this add-on did not make is refused. Objects that share a mesh (linked duplicates) share its
+UV map but get their own part of the atlas: the first user's part is what the UV map holds, the others carry
+``obj["radiosity_lightmap_offset"]``, the UV offset of their copy. The image is an OpenEXR file (saved next to the
+.blend, or where asked, or packed into an unsaved .blend) loaded as a Blender image.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+from ..core import SceneError
+from ..core.atlas import AtlasLayout, layout_atlas
+from .export import Export, ExportedObject
+
+OWNED_UV = "radiosity_lightmap_uv"
+OWNED_IMAGE = "radiosity_lightmap"
+OFFSET_PROPERTY = "radiosity_lightmap_offset"
+MAX_ATLAS_SIZE = 8192
+
+
+@dataclass(frozen=True)
+class LightmapOptions:
+    """uv_map: name of the UV map to make; image_name: of the Blender image and its file; texels_per_metre or
+    resolution (a square atlas) sets the density (neither: the preset's); padding: texels between charts;
+    half: 16-bit float EXR (else 32-bit)."""
+
+    uv_map: str = "Lightmap"
+    image_name: str = "Radiosity Lightmap"
+    texels_per_metre: float | None = None
+    resolution: int | None = None
+    padding: int = 4
+    half: bool = True
+
+
+@dataclass
+class LightmapPlan:
+    objects: list[ExportedObject]
+    layout: AtlasLayout
+    scene_triangle: np.ndarray
+    corner_uv: np.ndarray
+    options: LightmapOptions
+    warnings: list[str] = field(default_factory=list)
+
+
+def plan_lightmap(export: Export, options: LightmapOptions, default_texels_per_metre: float) -> LightmapPlan:
+    """Unwrap and pack every baked mesh object; raises SceneError naming a mesh whose UV map name is taken."""
+    warnings, objects = [], []
+    for item in export.objects:
+        if not item.writable:
+            continue
+        if not item.same_topology:
+            warnings.append(f"Object '{item.name}': its modifiers change the topology, so it gets no lightmap "
+                            "(apply them, or bake vertex colours).")
+            continue
+        mesh = bpy.data.meshes[item.mesh_name]
+        if options.uv_map in mesh.uv_layers and mesh.get(OWNED_UV) != options.uv_map:
+            raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a UV map '{options.uv_map}' "
+                             "that this add-on did not make; choose another lightmap UV map name.")
+        objects.append(item)
+    if not objects:
+        raise SceneError("Nothing to bake into a lightmap: no visible mesh object is set to 'Bake'.")
+    _check_image_name_free(options.image_name)
+    first_user: dict[str, int] = {}
+    for index, item in enumerate(objects):
+        first_user.setdefault(item.mesh_name, index)
+    meshes = [_unwrap_input(export, objects[index]) for index in first_user.values()]
+    mesh_of_object = [list(first_user).index(item.mesh_name) for item in objects]
+    density = options.texels_per_metre if options.texels_per_metre or options.resolution else \
+        default_texels_per_metre
+    layout = layout_atlas(meshes, mesh_of_object, options.padding, MAX_ATLAS_SIZE, density,
+                          None if options.texels_per_metre else options.resolution)
+    kept = _scene_index_of_input(export)
+    triangles, uvs = [], []
+    for item, corner_uv in zip(objects, layout.corner_uv):
+        scene_triangle = kept[item.first_triangle + np.arange(item.triangle_count)]
+        triangles.append(scene_triangle[scene_triangle >= 0])
+        uvs.append(corner_uv[scene_triangle >= 0])
+    return LightmapPlan(objects, layout, np.concatenate(triangles), np.concatenate(uvs), options, warnings)
+
+
+def _unwrap_input(export: Export, item: ExportedObject) -> tuple[np.ndarray, np.ndarray]:
+    """World-space vertex positions (scaled by the object's lightmap scale) and triangle vertex indices."""
+    triangles = export.input_triangles[item.first_triangle:item.first_triangle + item.triangle_count]
+    positions = np.zeros((int(item.corner_vertices.max()) + 1, 3))
+    positions[item.corner_vertices] = triangles
+    scale = getattr(getattr(bpy.data.objects[item.name], "radiosity", None), "lightmap_scale", 1.0)
+    return positions * scale, item.corner_vertices
+
+
+def _scene_index_of_input(export: Export) -> np.ndarray:
+    """Input triangle -> scene triangle (-1 where the scene dropped a zero-area triangle)."""
+    scene = export.scene
+    kept = np.full(len(scene.triangle_source) + scene.dropped_triangles, -1)
+    kept[scene.triangle_source] = np.arange(len(scene.triangle_source))
+    return kept
+
+
+def _check_image_name_free(name: str) -> None:
+    image = bpy.data.images.get(name)
+    if image is not None and not image.get(OWNED_IMAGE):
+        raise SceneError(f"An image '{name}' that this add-on did not make already exists; choose another "
+                         "lightmap image name.")
+
+
+def write_lightmap(plan: LightmapPlan, light: np.ndarray, metadata: dict, folder: str) -> list[dict]:
+    """UV maps on the meshes, the EXR file and the Blender image; returns the report's per-object entries."""
+    options, layout = plan.options, plan.layout
+    written: dict[str, np.ndarray] = {}
+    for item, corner_uv in zip(plan.objects, layout.corner_uv):
+        obj, mesh = bpy.data.objects[item.name], bpy.data.meshes[item.mesh_name]
+        if mesh.name in written:
+            obj[OFFSET_PROPERTY] = (corner_uv[0, 0] - written[mesh.name][0, 0]).tolist()
+            continue
+        _write_uv_map(mesh, options.uv_map, item.corner_loops, corner_uv)
+        written[mesh.name] = corner_uv
+        if OFFSET_PROPERTY in obj:
+            del obj[OFFSET_PROPERTY]
+    image = _write_image(options, light, metadata, folder)
+    path = bpy.path.abspath(image.filepath) if not image.packed_file else None
+    return [{"name": item.name, "uv_map": options.uv_map, "image": path or f"(packed) {image.name}",
+             "resolution": [layout.width, layout.height], "color_attribute": None} for item in plan.objects]
+
+
+def _write_uv_map(mesh, name: str, corner_loops: np.ndarray, corner_uv: np.ndarray) -> None:
+    layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
+    uv = np.zeros((len(mesh.loops), 2), dtype=np.float32)
+    uv[corner_loops.ravel()] = corner_uv.reshape(-1, 2)
+    layer.data.foreach_set("uv", uv.ravel())
+    mesh[OWNED_UV] = name
+
+
+def _write_image(options: LightmapOptions, light: np.ndarray, metadata: dict, folder: str):
+    from ..core.image_file import write_exr
+    pack = not folder
+    target = folder or tempfile.mkdtemp(prefix="radiosity_")
+    os.makedirs(target, exist_ok=True)
+    path = os.path.join(target, bpy.path.clean_name(options.image_name) + ".exr")
+    write_exr(path, light, options.half, metadata)
+    image = bpy.data.images.get(options.image_name)
+    if image is None:
+        image = bpy.data.images.load(path)
+        image.name = options.image_name
+    else:
+        image.filepath = path
+        image.source = "FILE"
+        image.reload()
+    image[OWNED_IMAGE] = True
+    if pack:
+        image.pack()
+        os.remove(path)
+        os.rmdir(target)
+    return image
+
+
+def lightmap_folder(setting: str) -> str:
+    """The absolute folder for lightmap files: the setting (Blender's // is the .blend's folder), or "" (pack
+    into the .blend) when it is relative and the .blend was never saved."""
+    if setting.startswith("//") and not bpy.data.filepath:
+        return ""
+    return os.path.abspath(bpy.path.abspath(setting or "//"))

@@ -1,0 +1,100 @@
+"""Lightmap texels against closed forms: rasterisation covers each triangle's area, the furnace and the sunlit
+plane give their exact light, and a block standing on a floor leaks no light under it."""
+import numpy as np
+import pytest
+
+from core import BakeSettings, Material, Scene, SunLight, bake
+from core.atlas import layout_atlas, pack_blocks
+from core.lightmap import LightmapSettings, bake_lightmap, dilate
+from core.texels import rasterize
+from shapes import box_faces, quad
+
+
+def as_mesh(triangles):
+    positions = triangles.reshape(-1, 3)
+    return positions, np.arange(len(positions)).reshape(-1, 3)
+
+
+def lightmap_of(scene, parts, settings=LightmapSettings(), texels_per_metre=16.0, bake_settings=None):
+    solution = bake(scene, bake_settings or BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    layout = layout_atlas([as_mesh(p) for p in parts], list(range(len(parts))), 2, 4096, texels_per_metre)
+    corner_uv = np.concatenate(layout.corner_uv)
+    result = bake_lightmap(solution, np.arange(len(scene.triangles)), corner_uv, layout.width, layout.height,
+                           settings)
+    return result, layout, corner_uv
+
+
+def test_rasterised_texels_cover_each_triangle_area():
+    """Texels whose centre is inside a triangle number its UV area (in texels) within its perimeter's worth."""
+    corner_uv = np.array([[[0.1, 0.1], [0.9, 0.2], [0.3, 0.8]]])
+    texels = rasterize(corner_uv, 256, 256)
+    (ax, ay), (bx, by) = corner_uv[0, 1] - corner_uv[0, 0], corner_uv[0, 2] - corner_uv[0, 0]
+    area = 0.5 * abs(ax * by - ay * bx) * 256 ** 2
+    inside = texels.centre_inside.sum()
+    assert abs(inside - area) < 0.5 * 256 * 2.5  # perimeter ~2.5 UV units -> at most half a texel per edge texel
+    assert len(texels.pixel) > inside  # partly covered texels are kept (conservative rasterisation)
+    assert len(np.unique(texels.pixel)) == len(texels.pixel)
+
+
+def test_shelf_packing_never_overlaps():
+    sizes = np.array([[30, 10], [10, 30], [25, 25], [5, 5], [40, 8]])
+    offsets, width, height = pack_blocks(sizes, 4096)
+    canvas = np.zeros((height, width), dtype=int)
+    for (x, y), (w, h) in zip(offsets, sizes):
+        canvas[y:y + h, x:x + w] += 1
+    assert canvas.max() == 1
+
+
+@pytest.mark.parametrize("indirect", ["gather", "interpolate"])
+def test_furnace_lightmap(indirect):
+    """Closed cube, every face emitting L with reflectance rho: B = pi L / (1 - rho) everywhere, so every texel
+    holds H / pi = L / (1 - rho) (here 2.0 for L = 1, rho = 0.5) within 2%."""
+    faces = box_faces((0, 0, 0), (1, 1, 1))
+    triangles = np.concatenate(faces)
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("glow", (0.5,) * 3, (1.0,) * 3)])
+    result, _, _ = lightmap_of(scene, faces, LightmapSettings(indirect=indirect, gather_samples_per_edge=4))
+    values = result.light[result.covered]
+    assert values.mean(axis=0) == pytest.approx([2.0] * 3, rel=0.02)
+    assert np.abs(values - 2.0).max() < 0.1
+
+
+def test_sunlit_plane_is_exact_and_dilated():
+    """A plane under a sun at 30 degrees from the zenith holds E cos / pi in every texel, padding included."""
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    sun = SunLight("sun", (0.0, -np.sin(np.radians(30)), -np.cos(np.radians(30))), strength_w_m2=3.0)
+    scene = Scene(floor, np.zeros(2, int), [Material("grey", (0.5,) * 3)], lights=[sun])
+    result, _, _ = lightmap_of(scene, [floor])
+    expected = 3.0 * np.cos(np.radians(30)) / np.pi
+    assert result.light[result.covered] == pytest.approx(expected, rel=1e-6)
+    grown = dilate(result.light, result.covered, 1)[1]
+    assert grown.sum() > result.covered.sum()
+
+
+def test_no_light_leaks_under_a_block_on_the_floor():
+    """Floor texels under a closed block see no light (the block's inside is dark), and texels just outside it
+    are lit like the open floor near the block (no dark blotch from samples inside the block)."""
+    floor = quad((-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0))
+    block = np.concatenate(box_faces((-0.5, -0.5, 0), (0.5, 0.5, 1), inward=False))
+    triangles = np.concatenate([floor, block])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    result, layout, corner_uv = lightmap_of(scene, [floor, block], LightmapSettings(indirect="interpolate"))
+    texels = rasterize(corner_uv[:2], layout.width, layout.height)
+    points = np.einsum("mc,mck->mk", texels.barycentric, floor[texels.triangle])
+    light = result.light.reshape(-1, 3)[texels.pixel, 0]
+    under = (np.abs(points[:, :2]) < 0.4).all(axis=1)  # more than a texel (1/16 m) inside the block's footprint
+    beside = (np.abs(points[:, :2]).max(axis=1) > 0.55) & (np.abs(points[:, :2]).max(axis=1) < 0.65)
+    sun_only = 3.0 / np.pi
+    assert light[under].max() < 0.02 * sun_only
+    assert light[beside].min() > 0.95 * sun_only
+
+
+def test_same_seed_same_lightmap():
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    block = np.concatenate(box_faces((-0.3, -0.3, 0), (0.3, 0.3, 0.6), inward=False))
+    triangles = np.concatenate([floor, block])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.3, 0.2, -1.0), strength_w_m2=3.0, angle_rad=0.1)])
+    first = lightmap_of(scene, [floor, block], LightmapSettings(gather_samples_per_edge=3))[0].light
+    second = lightmap_of(scene, [floor, block], LightmapSettings(gather_samples_per_edge=3))[0].light
+    assert np.array_equal(first, second)
