@@ -28,6 +28,7 @@ def write_exr(path: str, light: np.ndarray, half: bool = True, metadata: dict[st
     pixels = np.ascontiguousarray(light[::-1], dtype=np.float32)
     spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], "half" if half else "float")
     spec.attribute("compression", "zip")
+    spec.attribute("DateTime", "")  # OpenImageIO stamps the time otherwise; a bake must be byte-reproducible
     for key, value in (metadata or {}).items():
         spec.attribute(key, str(value))
     _write(oiio, path, spec, pixels)

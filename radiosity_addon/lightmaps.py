@@ -153,6 +153,7 @@ def _write_image(options: LightmapOptions, light: np.ndarray, metadata: dict, fo
         image.source = "FILE"
         image.reload()
     image[OWNED_IMAGE] = True
+    image.use_fake_user = True  # kept in the saved .blend even before a material uses it
     if pack:
         image.pack()
         os.remove(path)

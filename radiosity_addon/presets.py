@@ -61,6 +61,4 @@ def lightmap_settings(user: UserSettings, scene_size_m: float):
     if user.quality not in LIGHTMAP_PRESETS:
         method, samples = "gather", user.gather_samples_per_edge
         density = user.texels_per_metre or density
-    subtexel = 1 if user.quality == "DRAFT" else 2
-    return LightmapSettings(indirect=method, gather_samples_per_edge=samples, subtexel_samples_per_edge=subtexel,
-                            seed=user.seed), density
+    return LightmapSettings(indirect=method, gather_samples_per_edge=samples, seed=user.seed), density

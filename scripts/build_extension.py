@@ -2,7 +2,7 @@
 
     .venv/bin/python scripts/build_extension.py [--output-dir dist]
 
-Copies the tracked sources into build/extension, downloads the embreex wheels for every platform in the manifest
+Copies the tracked sources into build/extension, downloads the embreex and xatlas wheels for every platform in the manifest
 and for Python 3.11 (Blender 4.2-5.0) and 3.13 (Blender 5.1+) into its wheels/ folder (never committed), lists them
 in the copied manifest, then runs `blender_ext.py validate` and `build --split-platforms`.
 """
@@ -16,7 +16,9 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PLATFORM_TAGS = {"linux-x64": "manylinux_2_28_x86_64", "windows-x64": "win_amd64"}
+# pip takes explicit --platform tags literally, so list every manylinux level the pinned wheels use.
+PLATFORM_TAGS = {"linux-x64": ["manylinux_2_28_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64"],
+                 "windows-x64": ["win_amd64"]}
 PYTHONS = ("3.11", "3.13")
 
 
@@ -30,9 +32,12 @@ def blender_ext() -> Path:
     return found[-1]
 
 
-def embreex_pin() -> str:
-    line = next(l for l in (ROOT / "requirements" / "core.txt").read_text().splitlines() if l.startswith("embreex"))
-    return line.strip()
+BUNDLED = ("embreex", "xatlas")  # what Blender does not ship (it ships numpy and OpenImageIO)
+
+
+def bundled_pins() -> list[str]:
+    lines = (ROOT / "requirements" / "core.txt").read_text().splitlines()
+    return [line.strip() for line in lines if line.split("==")[0] in BUNDLED]
 
 
 def copy_sources(target: Path) -> None:
@@ -48,8 +53,9 @@ def download_wheels(target: Path, platforms: list[str]) -> list[str]:
     for platform in platforms:
         for python in PYTHONS:
             subprocess.run([sys.executable, "-m", "pip", "download", "--quiet", "--no-deps", "--only-binary=:all:",
-                            "--python-version", python, "--platform", PLATFORM_TAGS[platform], "-d", str(wheels),
-                            embreex_pin()], check=True)
+                            "--python-version", python,
+                            *(f"--platform={tag}" for tag in PLATFORM_TAGS[platform]), "-d", str(wheels),
+                            *bundled_pins()], check=True)
     return sorted(f"./wheels/{w.name}" for w in wheels.glob("*.whl"))
 
 
