@@ -131,8 +131,9 @@ class RADIOSITY_OT_cancel(bpy.types.Operator):
 
 
 class RADIOSITY_OT_preview(bpy.types.Operator):
-    """Show the baked colour attribute in the viewport (Solid shading, Attribute colour), or restore the
-    previous shading"""
+    """Show the baked light in the viewport: every material of the baked objects emits base colour x baked light
+    (the lightmap if one was baked, else the colour attribute) and viewports switch to Material Preview; run it
+    again to restore the materials exactly and the previous shading"""
 
     bl_idname = "radiosity.preview"
     bl_label = "Preview Baked Light"
@@ -140,19 +141,45 @@ class RADIOSITY_OT_preview(bpy.types.Operator):
     _saved: dict = {}
 
     def execute(self, context):
+        from . import hookup
         spaces = [space for area in context.screen.areas if area.type == "VIEW_3D"
                   for space in area.spaces if space.type == "VIEW_3D"] if context.screen else []
-        if RADIOSITY_OT_preview._saved:
+        hooked = [m for m in bpy.data.materials if hookup.REMEMBERED in m]
+        if hooked:
+            for material in hooked:
+                hookup.unhook(material)
             for space in spaces:
-                saved = RADIOSITY_OT_preview._saved.get(space.as_pointer())
-                if saved:
-                    space.shading.type, space.shading.color_type = saved
+                space.shading.type = RADIOSITY_OT_preview._saved.get(space.as_pointer(), space.shading.type)
             RADIOSITY_OT_preview._saved = {}
             return {"FINISHED"}
+        group = _baked_light_group(context.scene.radiosity)
+        if group is None:
+            self.report({"WARNING"}, "Nothing baked yet: bake first.")
+            return {"CANCELLED"}
+        baked = [o for o in context.scene.objects if o.type == "MESH" and _has_baked_light(o, context.scene.radiosity)]
+        for material in hookup.materials_of(baked):
+            hookup.hook_up(material, group)
         for space in spaces:
-            RADIOSITY_OT_preview._saved[space.as_pointer()] = (space.shading.type, space.shading.color_type)
-            space.shading.type, space.shading.color_type = "SOLID", "ATTRIBUTE"
+            RADIOSITY_OT_preview._saved[space.as_pointer()] = space.shading.type
+            space.shading.type = "MATERIAL"
         return {"FINISHED"}
+
+
+def _baked_light_group(settings):
+    """The hookup group for what was baked: the lightmap image on its UV map, else the colour attribute."""
+    from . import hookup
+    from .lightmaps import OWNED_IMAGE
+    image = bpy.data.images.get(settings.lightmap_image)
+    if image is not None and image.get(OWNED_IMAGE):
+        return hookup.baked_light_group(uv_map=settings.lightmap_uv_map, image=image)
+    if any(settings.attribute_name in m.color_attributes for m in bpy.data.meshes):
+        return hookup.baked_light_group(attribute=settings.attribute_name)
+    return None
+
+
+def _has_baked_light(obj, settings) -> bool:
+    mesh = obj.data
+    return settings.lightmap_uv_map in mesh.uv_layers or settings.attribute_name in mesh.color_attributes
 
 
 classes = (RADIOSITY_OT_bake, RADIOSITY_OT_cancel, RADIOSITY_OT_preview)

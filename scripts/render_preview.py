@@ -1,58 +1,23 @@
-"""Render a preview of a baked .blend: every mesh shows its baked light x its base colour as emission, which a
-Cycles render converges in a few samples. Usage: python scripts/render_preview.py BAKED.blend OUT.png [ATTRIBUTE]
+"""Render a preview of a baked .blend: the add-on's material hookup makes every baked mesh emit its base colour x
+its baked light (the lightmap if one was baked, else the colour attribute), which a Cycles render converges in a
+few samples. Usage: python scripts/render_preview.py BAKED.blend OUT.png
 
-The .blend is not saved: the preview materials exist only in this process.
+The .blend is not saved: the hooked-up materials exist only in this process.
 """
+import runpy
 import sys
+from pathlib import Path
 
 import bpy
 
-
-def preview_material(source, attribute: str):
-    """Emission = colour attribute x the source material's base colour."""
-    material = bpy.data.materials.new(f"Preview {source.name if source else ''}")
-    material.use_nodes = True
-    nodes, links = material.node_tree.nodes, material.node_tree.links
-    nodes.clear()
-    light = nodes.new("ShaderNodeVertexColor")
-    light.layer_name = attribute
-    albedo = nodes.new("ShaderNodeMix")
-    albedo.data_type, albedo.blend_type = "RGBA", "MULTIPLY"
-    albedo.inputs["Factor"].default_value = 1.0
-    base = (0.8, 0.8, 0.8, 1.0)
-    if source is not None and source.node_tree and "Principled BSDF" in source.node_tree.nodes:
-        bsdf = source.node_tree.nodes["Principled BSDF"]
-        base = tuple(bsdf.inputs["Base Color"].default_value)
-        emission = tuple(c * bsdf.inputs["Emission Strength"].default_value
-                         for c in bsdf.inputs["Emission Color"].default_value[:3])
-        if max(emission) > 0:  # emitters show their own radiance
-            base = (0.0, 0.0, 0.0, 1.0)
-    links.new(light.outputs["Color"], albedo.inputs["A"])
-    albedo.inputs["B"].default_value = base
-    shader = nodes.new("ShaderNodeEmission")
-    if source is not None and max(base[:3]) == 0 and source.node_tree:
-        bsdf = source.node_tree.nodes.get("Principled BSDF")
-        shader.inputs["Color"].default_value = bsdf.inputs["Emission Color"].default_value
-        shader.inputs["Strength"].default_value = bsdf.inputs["Emission Strength"].default_value
-    else:
-        links.new(albedo.outputs["Result"], shader.inputs["Color"])
-    output = nodes.new("ShaderNodeOutputMaterial")
-    links.new(shader.outputs["Emission"], output.inputs["Surface"])
-    return material
+ROOT = Path(__file__).resolve().parents[1]
 
 
-def main(blend: str, png: str, attribute: str = "Radiosity") -> None:
+def main(blend: str, png: str) -> None:
+    package = runpy.run_path(str(ROOT / "radiosity_addon" / "__main__.py"), run_name="loader")["load_package"]()
+    package.register()
     bpy.ops.wm.open_mainfile(filepath=blend)
-    for obj in bpy.context.scene.objects:
-        if obj.type == "MESH" and attribute in obj.data.color_attributes:
-            sources = [slot.material for slot in obj.material_slots] or [None]
-            for index, source in enumerate(sources):
-                material = preview_material(source, attribute)
-                if obj.material_slots:
-                    obj.material_slots[index].link = "OBJECT"
-                    obj.material_slots[index].material = material
-                else:
-                    obj.data.materials.append(material)
+    assert bpy.ops.radiosity.preview() == {"FINISHED"}, "nothing baked in this file"
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"

@@ -69,10 +69,11 @@ def add_light(kind: str, location, energy: float, **data):
     return light
 
 
-def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples: int, margin: int = 0):
-    """Cycles' Diffuse bake (Direct + Indirect, no Color) of the objects into one new float image on the given UV
-    map; returns (height, width, 3) light (row 0 at the bottom) and the seconds the bake took. The image node is
-    added to (and removed from) every material of the objects."""
+def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples: int, margin: int = 0,
+                         passes=("DIRECT", "INDIRECT")):
+    """Cycles' Diffuse bake (Direct + Indirect by default, no Color) of the objects into one new float image on the
+    given UV map; returns (height, width, 3) light (row 0 at the bottom) and the seconds the bake took. The image
+    node is added to (and removed from) every material of the objects."""
     import time
 
     import bpy
@@ -93,7 +94,7 @@ def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples:
         obj.select_set(obj in objects)
     bpy.context.view_layer.objects.active = objects[0]
     started = time.perf_counter()
-    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT", "INDIRECT"}, uv_layer=uv_map, margin=margin)
+    bpy.ops.object.bake(type="DIFFUSE", pass_filter=set(passes), uv_layer=uv_map, margin=margin)
     seconds = time.perf_counter() - started
     for material, node in nodes:
         material.node_tree.nodes.remove(node)

@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 import pytest
 
-from blender_setup import cycles_lightmap_bake, make_cornell_box, uv_coverage
+from blender_setup import add_light, cycles_lightmap_bake, grid_plane, make_cornell_box, uv_coverage
 SIZE = 128
 
 from test_cli import run_cli, scene_file  # noqa: F401 (a fixture)
@@ -70,3 +70,41 @@ def test_cornell_lightmap_matches_cycles(tmp_path, extension):
     for name in names:
         assert ratios[name] == pytest.approx(1.0, abs=0.13), name
         assert errors[name] <= (0.30 if name == "floor" else 0.16), name
+
+
+def material_snapshot(material):
+    """Everything about a node tree a hookup could change: nodes, their input values, and links."""
+    tree = material.node_tree
+    values = lambda node: [tuple(s.default_value) if hasattr(s.default_value, "__len__") else s.default_value
+                           for s in node.inputs if hasattr(s, "default_value")]
+    nodes = sorted((n.name, n.bl_idname, tuple(n.location), str(values(n))) for n in tree.nodes)
+    links = sorted((l.from_node.name, l.from_socket.identifier, l.to_node.name, l.to_socket.identifier)
+                   for l in tree.links)
+    return nodes, links, sorted(material.keys())
+
+
+def test_preview_hooks_up_materials_and_restores_them_exactly(empty_scene, tmp_path):
+    """Preview makes each baked material emit base colour x lightmap; previewing again restores every node,
+    value and link (the textured base colour included)."""
+    floor = grid_plane("Floor", 2.0, 2)
+    material = floor.data.materials[0]
+    texture = material.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image = bpy.data.images.new("checker", 8, 8)
+    bsdf = material.node_tree.nodes["Principled BSDF"]
+    material.node_tree.links.new(texture.outputs["Color"], bsdf.inputs["Base Color"])
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    settings = empty_scene.radiosity
+    settings.quality, settings.target, settings.lightmap_resolution = "DRAFT", "LIGHTMAP", 32
+    settings.lightmap_folder = str(tmp_path)
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    before = material_snapshot(material)
+    assert bpy.ops.radiosity.preview() == {"FINISHED"}
+    output = material.node_tree.nodes["Material Output"]
+    shown = output.inputs["Surface"].links[0].from_node
+    assert shown.type == "EMISSION"
+    group = shown.inputs["Color"].links[0].from_node
+    assert group.inputs["Base Color"].links[0].from_node == texture
+    images = [n.image for n in group.node_tree.nodes if n.type == "TEX_IMAGE"]
+    assert images == [bpy.data.images["Radiosity Lightmap"]]
+    assert bpy.ops.radiosity.preview() == {"FINISHED"}
+    assert material_snapshot(material) == before
