@@ -109,8 +109,11 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
         timer.lap(f"adaptive pass {number + 1}")
     emission = patch_mean(state.elements.emitted_exitance, state.elements, patches)
     direct = DirectLighting(scene, caster, patches, emission, offset, settings.light_samples_per_edge, settings.seed)
+    # The light the unshot residual would still bring, spread evenly (the ambient term), so an early stop does
+    # not leave multiple reflection short (by about residual / (1 - rho) on bright walls).
+    ambient = state.ambient(factors.enclosure(patches))
     return Solution(scene, mesh, state, weld_tolerance_m=offset / 10, seconds=timer.laps, rays_cast=caster.rays_cast,
-                    direct=direct)
+                    direct=direct, ambient_irradiance=ambient)
 
 
 def _form_factor_rows(settings, caster, patches, mesh, scene, offset):

@@ -29,6 +29,7 @@ class Solution:
     seconds: dict[str, float] = field(default_factory=dict)
     rays_cast: int = 0
     direct: DirectLighting | None = None
+    ambient_irradiance: np.ndarray = field(default_factory=lambda: np.zeros(3))
     _corner_light: np.ndarray | None = field(default=None, init=False, repr=False)
     _corner_indirect: np.ndarray | None = field(default=None, init=False, repr=False)
     _corner_reflected: np.ndarray | None = field(default=None, init=False, repr=False)
@@ -46,13 +47,17 @@ class Solution:
     def element_count(self) -> int:
         return len(self.state.elements.node)
 
+    def element_irradiance(self) -> np.ndarray:
+        """(n, 3) irradiance H per element, W m^-2: the solve's plus the ambient term for the unshot residual."""
+        return self.state.irradiance + self.ambient_irradiance
+
     def element_light(self) -> np.ndarray:
         """(n, 3) irradiance / pi per element (Cycles' Diffuse Direct + Indirect, no Color)."""
-        return self.state.irradiance / np.pi
+        return self.element_irradiance() / np.pi
 
     def element_radiosity(self) -> np.ndarray:
         """(n, 3) radiosity B = E + rho H per element, W m^-2."""
-        return self.state.radiosity
+        return self.state.elements.emitted_exitance + self.state.elements.reflectance * self.element_irradiance()
 
     def corner_light(self) -> np.ndarray:
         """(n, 3, 3) light at each element's corners by area-weighted nodal averaging (computed once)."""
@@ -65,7 +70,7 @@ class Solution:
         if self._corner_indirect is None:
             elements = self.state.elements
             direct = self.direct.irradiance(elements.centroid, elements.normal, elements.patch)
-            self._corner_indirect = self._nodal_average((self.state.irradiance - direct) / np.pi)
+            self._corner_indirect = self._nodal_average((self.element_irradiance() - direct) / np.pi)
         return self._corner_indirect
 
     def _nodal_average(self, light: np.ndarray) -> np.ndarray:
@@ -127,7 +132,7 @@ class Solution:
         what a final-gather ray sees where it lands."""
         if self._corner_reflected is None:
             elements = self.state.elements
-            self._corner_reflected = self._nodal_average(self.state.radiosity - elements.emitted_exitance)
+            self._corner_reflected = self._nodal_average(elements.reflectance * self.element_irradiance())
         return self.interpolate(self._corner_reflected, scene_triangle, barycentric)
 
     def interpolate(self, corner_values: np.ndarray, scene_triangle: np.ndarray,

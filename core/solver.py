@@ -66,6 +66,16 @@ class FormFactors:
                 self.rows[:, block] = rows
                 self.rows_known[block] = True
 
+    def enclosure(self, patches: "Patches") -> float:
+        """Area-weighted mean, over the patches that have shot, of the share of their light landing on the scene:
+        sum_i F(i -> j) A_i / A_j by reciprocity from patch j's coupling column (1 if none has shot)."""
+        if not self.known.any():
+            return 1.0
+        area = patches.area_m2
+        column_sums = (self.coupling[:, self.known].astype(np.float64) * area[:, None]).sum(axis=0)
+        share = np.clip(column_sums / area[self.known], 0.0, 1.0)
+        return float((share * area[self.known]).sum() / area[self.known].sum())
+
     def gather(self, weights: np.ndarray, elements: Elements, cancelled: Callable[[], bool] = never_cancelled,
                store: bool = True):
         """(n, 3) sum_j F(e -> j) weights_j over patches with non-zero weight, from stored or fresh rows.
@@ -143,13 +153,16 @@ class RadiosityState:
         """Unshot power over injected power (emission plus first reflection of direct light)."""
         return _residual(self.unshot, self.patches.area_m2, self.injected_power_w)
 
-    def ambient(self) -> np.ndarray:
-        """(3,) ambient radiosity for intermediate display (Cohen et al. 1988, section 4.2):
-        R sum_j dB_j A_j / sum_j A_j with R = 1 / (1 - rho_avg); show B_e + rho_e ambient."""
+    def ambient(self, enclosure: float = 1.0) -> np.ndarray:
+        """(3,) ambient radiosity (Cohen et al. 1988, section 4.2): the light the unshot radiosity will still
+        bring, spread evenly, R sum_j dB_j A_j / sum_j A_j with R = 1 / (1 - rho_avg); show B_e + rho_e ambient.
+
+        ``enclosure`` (the share of light leaving a surface that lands on the scene: 1 in a closed room, less where
+        light escapes) generalises it to open scenes: f unshot_mean / (1 - rho_avg f); the paper's term is f = 1."""
         area = self.elements.area_m2[:, None]
         rho_avg = (self.elements.reflectance * area).sum(axis=0) / area.sum()
         unshot_mean = (self.unshot * self.patches.area_m2[:, None]).sum(axis=0) / self.patches.area_m2.sum()
-        return unshot_mean / (1.0 - rho_avg)
+        return enclosure * unshot_mean / (1.0 - rho_avg * enclosure)
 
 
 def patch_mean(values: np.ndarray, elements: Elements, patches: Patches) -> np.ndarray:
