@@ -1,13 +1,16 @@
 """Lightmap speed and error against Cycles on the same UV map, in one run on one machine.
 
-    .venv/bin/python benchmarks/lightmap_vs_cycles.py [--resolution 128] [--qualities DRAFT,MEDIUM,HIGH]
-                                                      [--samples 4,16,64,256] [--reference 2048]
+    .venv/bin/python benchmarks/lightmap_vs_cycles.py [--scene cornell_box|room] [--resolution 128]
+                      [--qualities DRAFT,MEDIUM,HIGH] [--samples 4,16,64,256,1024] [--reference 4096]
 
-Bakes the Cornell box sample with each of our quality presets into a lightmap, then bakes Cycles' Diffuse pass
-(Direct + Indirect, no Color, CPU) on our UV map and resolution at increasing samples and once at ``--reference``
-samples as the converged reference. Prints a table: seconds and relative RMSE over the texels Cycles bakes (the
-ceiling, whose rim sits 0.5 mm above the light's back face, left out), and for each of our presets the Cycles
-time needed to reach the same error (interpolated in log-log between the sample counts).
+Bakes a sample scene with each of our quality presets into a lightmap, then bakes Cycles' Diffuse pass
+(Direct + Indirect, no Color, CPU, 64 bounces, no clamping) on our UV map and resolution at increasing samples,
+and twice (two seeds) at ``--reference`` samples: their mean is the reference, and their difference measures the
+noise left in it, which is subtracted from every squared error (an unbiased estimate of the error against the
+converged answer). Prints seconds and relative RMSE over the texels Cycles bakes, and for each of our presets the
+Cycles time needed to reach the same error (log-log interpolation along the sample ladder). Left out: the Cornell
+box's ceiling, whose rim sits 0.5 mm above the light's back face, and linked duplicates past the first (Cycles
+bakes a shared mesh's UV map once).
 """
 from __future__ import annotations
 
@@ -23,29 +26,32 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "addon"))
 
-COMPARED = ["floor", "back wall", "left wall", "right wall", "short block", "tall block"]
+LEFT_OUT = {"cornell_box": {"ceiling", "light"}, "room": set()}
 
 
-def relative_rmse(values, reference, mask) -> float:
-    return float(np.sqrt(np.mean((values[mask] - reference[mask]) ** 2)) / reference[mask].mean())
+def relative_rmse(values, reference, mask, reference_variance=0.0) -> float:
+    """sqrt(mean squared difference - the reference's own noise variance) / mean of the reference."""
+    squared = np.mean((values[mask] - reference[mask]) ** 2) - reference_variance
+    return float(np.sqrt(max(squared, 0.0)) / reference[mask].mean())
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scene", choices=sorted(LEFT_OUT), default="cornell_box")
     parser.add_argument("--resolution", type=int, default=128)
     parser.add_argument("--qualities", default="DRAFT,MEDIUM,HIGH")
-    parser.add_argument("--samples", default="4,16,64,256")
-    parser.add_argument("--reference", type=int, default=2048)
+    parser.add_argument("--samples", default="4,16,64,256,1024")
+    parser.add_argument("--reference", type=int, default=4096)
     args = parser.parse_args()
     import bpy
-    from blender_setup import cycles_lightmap_bake, load_extension, make_cornell_box, uv_coverage
+    from blender_setup import cycles_lightmap_bake, load_extension, make_sample, uv_coverage
     package = load_extension()
     package.register()
     job = package.radiosity_addon.job
-    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
+    from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY, LightmapOptions
     from radiosity_baker.radiosity_addon.presets import UserSettings
     folder = Path(tempfile.mkdtemp())
-    scene_file = make_cornell_box(folder)
+    scene_file = make_sample(args.scene, folder)
     options = LightmapOptions(resolution=args.resolution, padding=2)
     ours = {}
     for quality in args.qualities.split(","):
@@ -55,23 +61,28 @@ def main() -> None:
                                                                           lightmap_folder=str(folder)))
         job.solve(bake, lambda fraction, message: None, lambda: False)
         ours[quality] = (bake.lightmap.light.astype(np.float64), time.perf_counter() - started)
-        job.apply(bake)  # the UV map Cycles bakes on (identical for every preset: same layout)
-    objects = [bpy.data.objects[name] for name in COMPARED]
+        report = job.apply(bake)  # the UV map Cycles bakes on (identical for every preset: same layout)
+    objects = [bpy.data.objects[entry["name"]] for entry in report["objects"] if entry["uv_map"]]
+    objects = [o for o in objects if o.name not in LEFT_OUT[args.scene] and OFFSET_PROPERTY not in o]
     size = args.resolution
     mask = uv_coverage(objects, "Lightmap", size, size)
-    reference, reference_seconds = cycles_lightmap_bake(objects, "Lightmap", size, size, args.reference)
+    first, reference_seconds = cycles_lightmap_bake(objects, "Lightmap", size, size, args.reference, seed=1)
+    second, _ = cycles_lightmap_bake(objects, "Lightmap", size, size, args.reference, seed=2)
+    reference = 0.5 * (first + second)
+    variance = float(np.mean((first[mask] - second[mask]) ** 2) / 4.0)  # of the mean of two bakes
     rows = []
     for samples in [int(s) for s in args.samples.split(",")]:
-        light, seconds = cycles_lightmap_bake(objects, "Lightmap", size, size, samples)
-        rows.append((f"Cycles {samples} spp", seconds, relative_rmse(light, reference, mask)))
+        light, seconds = cycles_lightmap_bake(objects, "Lightmap", size, size, samples, seed=3)
+        rows.append((f"Cycles {samples} spp", seconds, relative_rmse(light, reference, mask, variance)))
     cycles = sorted((error, seconds) for _, seconds, error in rows)
-    print(f"Cornell box lightmap {size} x {size}, {int(mask.sum())} texels compared; reference Cycles "
-          f"{args.reference} spp ({reference_seconds:.1f} s)")
+    print(f"{args.scene} lightmap {size} x {size}, {int(mask.sum())} texels compared; reference: 2 x Cycles "
+          f"{args.reference} spp ({reference_seconds:.1f} s each), its noise "
+          f"{np.sqrt(variance) / reference[mask].mean():.4f} (removed from the errors below)")
     print(f"{'bake':24s} {'seconds':>8s} {'rel. RMSE':>10s} {'Cycles s at same error':>24s} {'ratio':>7s}")
     for name, seconds, error in rows:
         print(f"{name:24s} {seconds:8.2f} {error:10.4f}")
     for quality, (light, seconds) in ours.items():
-        error = relative_rmse(light, reference, mask)
+        error = relative_rmse(light, reference, mask, variance)
         matched = cycles_seconds_at(error, cycles)
         ratio = f"{matched / seconds:7.2f}" if matched else "    n/a"
         matched_text = f"{matched:24.2f}" if matched else f"{'(beyond the ladder)':>24s}"

@@ -90,6 +90,8 @@ def _point_like(light, caster, points, normals, offset_m, samples_per_edge, seed
         axis = np.asarray(light.direction, dtype=np.float64) / np.linalg.norm(light.direction)
         irradiance *= spot_mask(-direction @ axis, light.spot_size_rad, light.spot_blend)
     lit = np.flatnonzero(irradiance > 0)
+    if len(lit) == 0:  # nothing faces the light: no shadow rays to cast
+        return irradiance
     if light.radius_m > 0:
         disk = concentric_disk(stratified_square(len(lit), samples_per_edge, seed)) * light.radius_m
         frame = tangent_frames(-direction[lit])
@@ -105,6 +107,8 @@ def _sun(light: SunLight, caster, points, normals, offset_m, samples_per_edge, s
     to_sun = -np.asarray(light.direction, dtype=np.float64) / np.linalg.norm(light.direction)
     irradiance = light.strength_w_m2 * np.maximum(normals @ to_sun, 0.0)
     lit = np.flatnonzero(irradiance > 0)
+    if len(lit) == 0:  # nothing faces the light: no shadow rays to cast
+        return irradiance
     count = samples_per_edge if light.angle_rad > 0 else 1
     disk = concentric_disk(stratified_square(len(lit), count, seed)) * np.tan(light.angle_rad / 2.0)
     frame = tangent_frames(to_sun[None])[0]
@@ -127,6 +131,8 @@ def _area(light: AreaLight, caster, points, normals, offset_m, samples_per_edge,
     irradiance[front] = np.pi * radiance * point_to_polygon(
         points[front], normals[front], np.broadcast_to(polygon, (len(front),) + polygon.shape).copy())
     lit = np.flatnonzero(irradiance > 0)
+    if len(lit) == 0:  # nothing faces the light: no shadow rays to cast
+        return irradiance
     unit = stratified_square(len(lit), samples_per_edge, seed)
     if light.shape in ("DISK", "ELLIPSE"):
         unit = 0.5 * (concentric_disk(unit) + 1.0)
@@ -142,6 +148,8 @@ def _area(light: AreaLight, caster, points, normals, offset_m, samples_per_edge,
 
 def _world_escape_share(caster, points, normals, offset_m, samples_per_edge, seed):
     """Share of cosine-weighted directions from each point that hit nothing (stratified, seeded)."""
+    if len(points) == 0:
+        return np.zeros(0)
     local = cosine_hemisphere(stratified_square(len(points), samples_per_edge, seed))
     directions = np.einsum("msi,mik->msk", local, tangent_frames(normals))
     origins = np.repeat(points + offset_m * normals, directions.shape[1], axis=0)

@@ -202,7 +202,22 @@ def elements_of(mesh: ElementMesh, scene: Scene, nodes: np.ndarray | None = None
     return Elements(
         node=nodes, patch=mesh.node_patch[nodes], corners=corners, centroid=corners.mean(axis=1),
         normal=triangle_unit_normals(mesh.triangles[mesh.node_triangle[nodes]]), area_m2=triangle_areas(corners),
-        reflectance=scene.reflectance[material], emitted_exitance=np.pi * scene.emitted_radiance[material])
+        reflectance=_element_reflectance(mesh, scene, nodes, scene_triangle, material),
+        emitted_exitance=np.pi * scene.emitted_radiance[material])
+
+
+def _element_reflectance(mesh: ElementMesh, scene: Scene, nodes, scene_triangle, material) -> np.ndarray:
+    """(n, 3) reflectance: the material's, or its texture's mean over each element's UV footprint (where the
+    triangle has finite UVs)."""
+    reflectance = scene.reflectance[material]
+    mapped = np.isfinite(scene.triangle_uv[scene_triangle]).all(axis=(1, 2))
+    for index, item in enumerate(scene.materials):
+        textured = np.flatnonzero((material == index) & mapped) if item.texture is not None else []
+        if len(textured):
+            corner_uv = np.einsum("nij,njk->nik", mesh.node_bary[nodes[textured]],
+                                  scene.triangle_uv[scene_triangle[textured]])
+            reflectance[textured] = item.texture.footprint_mean(corner_uv)
+    return reflectance
 
 
 def weld_vertices(mesh: ElementMesh, nodes: np.ndarray, tolerance_m: float) -> tuple[np.ndarray, np.ndarray]:

@@ -25,11 +25,16 @@ class SceneError(ValueError):
 
 @dataclass(frozen=True)
 class Material:
-    """Lambertian material. ``reflectance`` in [0, 1) per channel; ``emitted_radiance`` >= 0 (W m^-2 sr^-1)."""
+    """Lambertian material. ``reflectance`` in [0, 1) per channel; ``emitted_radiance`` >= 0 (W m^-2 sr^-1).
+
+    ``texture`` (optional, core.texture.ReflectanceTexture): a base-colour image read through the scene's
+    ``triangle_uv``; elements then reflect the image's mean over their footprint, and ``reflectance`` is the
+    image's overall mean (used where one value is needed)."""
 
     name: str
     reflectance: RGB = (0.8, 0.8, 0.8)
     emitted_radiance: RGB = (0.0, 0.0, 0.0)
+    texture: object = None
 
 
 @dataclass(frozen=True)
@@ -120,6 +125,7 @@ class Scene:
     material_index:  (T,) int, index into ``materials``.
     object_index:    (T,) int, index into ``object_names`` (for messages and per-object outputs).
     casts_only:      (T,) bool, True for "shadow only" geometry: it blocks light but is not solved.
+    triangle_uv:     (T, 3, 2) float, optional: each corner's UV in its material's texture.
 
     Zero-area triangles are dropped on construction; ``dropped_triangles`` counts them and
     ``triangle_source`` maps each kept triangle to its index in the input.
@@ -133,6 +139,7 @@ class Scene:
     object_index: np.ndarray | None = None
     object_names: list[str] | None = None
     casts_only: np.ndarray | None = None
+    triangle_uv: np.ndarray | None = None
     dropped_triangles: int = field(init=False, default=0)
     triangle_source: np.ndarray = field(init=False)
 
@@ -148,6 +155,9 @@ class Scene:
         if self.casts_only is None:
             self.casts_only = np.zeros(count, dtype=bool)
         self.casts_only = np.asarray(self.casts_only, dtype=bool).reshape(-1)
+        if self.triangle_uv is None:
+            self.triangle_uv = np.zeros((count, 3, 2))
+        self.triangle_uv = np.asarray(self.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)
         _validate(self)
         keep = triangle_areas(self.triangles) > 0.0
         self.dropped_triangles = int(count - keep.sum())
@@ -156,6 +166,7 @@ class Scene:
         self.material_index = self.material_index[keep]
         self.object_index = self.object_index[keep]
         self.casts_only = self.casts_only[keep]
+        self.triangle_uv = self.triangle_uv[keep]
         if not (~self.casts_only).any():
             raise SceneError("Nothing to bake: every triangle has zero area or is 'shadow only'.")
 
@@ -193,7 +204,7 @@ def _validate(scene: Scene) -> None:
     if count == 0:
         raise SceneError("The scene is empty: no triangles to bake.")
     for name, array in (("material_index", scene.material_index), ("object_index", scene.object_index),
-                        ("casts_only", scene.casts_only)):
+                        ("casts_only", scene.casts_only), ("triangle_uv", scene.triangle_uv)):
         if len(array) != count:
             raise SceneError(f"{name} has {len(array)} entries for {count} triangles.")
     bad = ~np.isfinite(scene.triangles).all(axis=(1, 2))
@@ -231,6 +242,12 @@ def _check_rgb(values, owner: str, quantity: str, upper: float | None) -> None:
 
 def _check_material(material: Material) -> None:
     _check_rgb(material.reflectance, f"Material '{material.name}'", "reflectance", upper=1.0)
+    if material.texture is not None:
+        pixels = material.texture.pixels[..., :3]
+        if not np.isfinite(pixels).all() or pixels.min() < 0 or pixels.max() >= 1.0:
+            raise SceneError(f"Material '{material.name}': its base colour texture has values outside [0, 1) "
+                             f"(from {pixels.min():.3g} to {pixels.max():.3g}); a reflectance of 1 or more never "
+                             "converges.")
     _check_rgb(material.emitted_radiance, f"Material '{material.name}'", "emitted radiance", upper=None)
 
 

@@ -12,8 +12,10 @@ import bpy
 import numpy as np
 
 from ..core import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
+from ..core.texture import ReflectanceTexture
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+TEXTURE_MAX_SIDE = 256
 DEFAULT_MATERIAL = Material("(no material)", (0.8, 0.8, 0.8))
 
 
@@ -51,7 +53,7 @@ def export_scene(context) -> Export:
     """Read the evaluated scene; raises core.SceneError (naming the item) for what the core refuses."""
     depsgraph = context.evaluated_depsgraph_get()
     materials = _Materials()
-    triangles, material_index, casts_only, objects, object_index = [], [], [], [], []
+    triangles, material_index, casts_only, objects, object_index, triangle_uv = [], [], [], [], [], []
     lights, names = [], []
     for instance in depsgraph.object_instances:
         evaluated = instance.object
@@ -68,7 +70,7 @@ def export_scene(context) -> Export:
         part = _mesh_triangles(evaluated, np.array(instance.matrix_world), materials)
         if part is None:
             continue
-        world_triangles, slots, loops, vertices = part
+        world_triangles, slots, loops, vertices, uv = part
         name = original.name if not instance.is_instance else f"{original.name} (instance of {owner.name})"
         first = sum(len(t) for t in triangles)
         objects.append(ExportedObject(
@@ -78,20 +80,21 @@ def export_scene(context) -> Export:
             same_topology=_same_topology(evaluated, original)))
         names.append(name)
         triangles.append(world_triangles)
+        triangle_uv.append(uv)
         material_index.append(slots)
         casts_only.append(np.full(len(world_triangles), mode == "SHADOW_ONLY"))
         object_index.append(np.full(len(world_triangles), len(names) - 1))
-    _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials.list)
+    _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials.list, triangle_uv)
     stack = lambda parts, shape, dtype: np.concatenate(parts) if parts else np.zeros(shape, dtype)
     input_triangles = stack(triangles, (0, 3, 3), float)
     scene = Scene(input_triangles, stack(material_index, 0, int), materials.list or
                   [DEFAULT_MATERIAL], lights=lights, world=_world(context.scene, materials.warnings),
                   object_index=stack(object_index, 0, int), object_names=names,
-                  casts_only=stack(casts_only, 0, bool))
+                  casts_only=stack(casts_only, 0, bool), triangle_uv=stack(triangle_uv, (0, 3, 2), float))
     return Export(scene, objects, input_triangles, materials.warnings)
 
 
-def _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials) -> None:
+def _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials, triangle_uv) -> None:
     """Cycles' mesh lights emit from both faces: append a flipped copy of every emissive triangle (after all
     objects' ranges, as one extra unwritable part) so the back face shoots too."""
     if not triangles:
@@ -103,6 +106,7 @@ def _add_emitter_backs(triangles, material_index, casts_only, object_index, name
         return
     names.append("(back faces of emitters)")
     triangles.append(all_triangles[back][:, ::-1])
+    triangle_uv.append(np.concatenate(triangle_uv)[back][:, ::-1])
     material_index.append(all_materials[back])
     casts_only.append(np.zeros(int(back.sum()), dtype=bool))
     object_index.append(np.full(int(back.sum()), len(names) - 1))
@@ -121,7 +125,8 @@ def _same_topology(evaluated, original) -> bool:
 
 
 def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials"):
-    """World-space (t, 3, 3) triangles, global material indices (t,), corner loops and vertices (t, 3), or None."""
+    """World-space (t, 3, 3) triangles, global material indices (t,), corner loops and vertices (t, 3) and the
+    corners' UVs in their material's texture (t, 3, 2), or None."""
     mesh = evaluated.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -136,14 +141,36 @@ def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials"):
         mesh.loop_triangles.foreach_get("loops", loops)
         slot = np.empty(count, dtype=np.int32)
         mesh.loop_triangles.foreach_get("material_index", slot)
+        table = np.array([materials.index(s.material) for s in evaluated.material_slots] or
+                         [materials.index(None)])
+        material = table[np.clip(slot, 0, len(table) - 1)]
+        uv = _texture_uvs(mesh, material, loops.reshape(-1, 3), materials.list)
     finally:
         evaluated.to_mesh_clear()
     world = positions.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
     corners, loops = corners.reshape(-1, 3), loops.reshape(-1, 3)
     if np.linalg.det(matrix[:3, :3]) < 0:  # mirrored: keep the winding consistent with Blender's normals
-        corners, loops = corners[:, ::-1], loops[:, ::-1]
-    table = np.array([materials.index(s.material) for s in evaluated.material_slots] or [materials.index(None)])
-    return world[corners], table[np.clip(slot, 0, len(table) - 1)], loops, corners
+        corners, loops, uv = corners[:, ::-1], loops[:, ::-1], uv[:, ::-1]
+    return world[corners], material, loops, corners, uv
+
+
+def _texture_uvs(mesh, material: np.ndarray, loops: np.ndarray, materials: list[Material]) -> np.ndarray:
+    """(t, 3, 2) UVs of each triangle corner in the UV map its material's texture reads (NaN where there is no
+    such UV map or no texture: those triangles reflect the material's mean colour)."""
+    uv = np.full(loops.shape + (2,), np.nan)
+    for index in np.unique(material):
+        texture = materials[index].texture
+        if texture is None:
+            continue
+        layer = mesh.uv_layers.get(texture.uv_map) if texture.uv_map else \
+            next((l for l in mesh.uv_layers if l.active_render), None)
+        if layer is None:
+            continue
+        loop_uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+        layer.data.foreach_get("uv", loop_uv)
+        rows = material == index
+        uv[rows] = loop_uv.reshape(-1, 2)[loops[rows]]
+    return uv
 
 
 class _Materials:
@@ -165,7 +192,8 @@ class _Materials:
 def read_material(material, warnings: list[str]) -> Material:
     """Reflectance and emitted radiance from the node tree.
 
-    Principled BSDF: Base Color (an Image Texture feeding it is averaged over the image), Emission Color x
+    Principled BSDF: Base Color (an Image Texture feeding it becomes a texture the core averages over each
+    element's footprint), Emission Color x
     Emission Strength; Diffuse BSDF: Color; Emission: Color x Strength (no reflection). Anything else: the
     material's viewport colour, with a warning naming the material.
     """
@@ -179,12 +207,13 @@ def read_material(material, warnings: list[str]) -> Material:
                         "colour.")
         return fallback
     if surface.type == "BSDF_PRINCIPLED":
-        base = _colour(surface.inputs["Base Color"], material.name, warnings)
+        base, texture = _colour(surface.inputs["Base Color"], material.name, warnings)
         emission = np.array(surface.inputs["Emission Color"].default_value[:3]) * \
             surface.inputs["Emission Strength"].default_value
-        return Material(material.name, base, tuple(emission))
+        return Material(material.name, base, tuple(emission), texture)
     if surface.type == "BSDF_DIFFUSE":
-        return Material(material.name, _colour(surface.inputs["Color"], material.name, warnings))
+        base, texture = _colour(surface.inputs["Color"], material.name, warnings)
+        return Material(material.name, base, texture=texture)
     if surface.type == "EMISSION":
         emission = np.array(surface.inputs["Color"].default_value[:3]) * surface.inputs["Strength"].default_value
         return Material(material.name, (0.0, 0.0, 0.0), tuple(emission))
@@ -203,25 +232,44 @@ def _surface_node(tree):
     return outputs[0].inputs["Surface"].links[0].from_node
 
 
-def _colour(socket, material_name: str, warnings: list[str]) -> tuple[float, float, float]:
+def _colour(socket, material_name: str, warnings: list[str]):
+    """(mean RGB, ReflectanceTexture or None) of a colour socket: its value, or an Image Texture feeding it
+    (read through its UV map; a texture coordinate setup we cannot follow gives the image mean with a warning)."""
     if not socket.is_linked:
-        return tuple(socket.default_value[:3])
+        return tuple(socket.default_value[:3]), None
     source = socket.links[0].from_node
     if source.type == "TEX_IMAGE" and source.image is not None:
-        return image_average(source.image)
+        pixels = image_pixels(source.image)
+        mean = tuple(pixels.reshape(-1, 3).mean(axis=0))
+        vector = source.inputs["Vector"]
+        if not vector.is_linked:
+            return mean, ReflectanceTexture(pixels)
+        if vector.links[0].from_node.type == "UVMAP":
+            return mean, ReflectanceTexture(pixels, vector.links[0].from_node.uv_map)
+        warnings.append(f"Material '{material_name}': the image '{source.image.name}' is mapped through a "
+                        f"'{vector.links[0].from_node.name}' node that is not read; using the image's mean colour.")
+        return mean, None
     warnings.append(f"Material '{material_name}': '{socket.name}' is driven by a '{source.name}' node that is not "
                     "read; using the socket's own colour.")
-    return tuple(socket.default_value[:3])
+    return tuple(socket.default_value[:3]), None
 
 
-def image_average(image) -> tuple[float, float, float]:
-    """Mean linear RGB of an image (sRGB byte images are linearised first)."""
-    pixels = np.empty(len(image.pixels), dtype=np.float32)
+def image_pixels(image, max_side: int = TEXTURE_MAX_SIDE) -> np.ndarray:
+    """(h, w, 3) linear RGB of an image (sRGB byte images linearised), box-filtered down to at most ``max_side``
+    texels a side: elements are far larger than texels, and a 4k image would cost 400 MB as float64."""
+    width, height = image.size
+    pixels = np.empty(width * height * image.channels, dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    rgb = pixels.reshape(-1, image.channels)[:, :3].astype(np.float64)
+    rgb = pixels.reshape(height, width, image.channels)[..., :3].astype(np.float64)
+    if image.channels == 1:
+        rgb = np.repeat(pixels.reshape(height, width, 1), 3, axis=2).astype(np.float64)
     if not image.is_float and image.colorspace_settings.name == "sRGB":
         rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
-    return tuple(rgb.mean(axis=0))
+    factor = max(1, int(np.ceil(max(width, height) / max_side)))
+    if factor > 1:
+        h, w = height // factor * factor, width // factor * factor
+        rgb = rgb[:h, :w].reshape(h // factor, factor, w // factor, factor, 3).mean(axis=(1, 3))
+    return rgb
 
 
 def _light(obj, matrix: np.ndarray):

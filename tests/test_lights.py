@@ -140,3 +140,13 @@ def test_world_light_under_a_roof_is_reduced_by_its_cosine_weighted_solid_angle(
     scene = plane_scene([], world=World((1.0, 1.0, 1.0)), occluder=True)
     measured = irradiance_at(scene, [[0.0, 0.0, 0.0]], samples_per_edge=32)[0, 0]
     assert measured == pytest.approx(np.pi * (1 - 0.239456), rel=0.01)
+
+
+@pytest.mark.parametrize("light", [
+    SunLight("sun", (0.0, 0.0, 1.0), strength_w_m2=3.0, angle_rad=0.1),
+    PointLight("bulb", (0.0, 0.0, -1.0), power_w=100.0, radius_m=0.1),
+    SpotLight("spot", (0.0, 0.0, -1.0), (0.0, 0.0, -1.0), power_w=100.0, spot_size_rad=1.0, spot_blend=0.1),
+    AreaLight("panel", (0.0, 0.0, -1.0), (0.0, 0.0, -1.0), power_w=100.0, shape="SQUARE", size_m=0.5)])
+def test_light_behind_every_point_gives_zero(light):
+    """No point faces the light (all of it is behind the floor): zero, and no shadow rays to cast."""
+    assert irradiance_at(plane_scene([light]), FLOOR_POINTS) == pytest.approx(0.0)

@@ -2,9 +2,10 @@
 import numpy as np
 import pytest
 
-from core import BakeSettings, Material, PointLight, Scene, bake
+from core import BakeSettings, Material, PointLight, Scene, SceneError, SunLight, bake
 from core.mesh import build_mesh, elements_of, locate_uniform, uniform_subdivision, weld_vertices
 from core.scene import triangle_areas
+from core.texture import ReflectanceTexture
 from shapes import box_faces, quad
 
 
@@ -79,3 +80,26 @@ def test_same_seed_gives_identical_results():
                       lights=[PointLight("Lamp", (1, 1, 1.5), 100.0, radius_m=0.2)])
         return bake(scene, BakeSettings(patch_size_m=0.5, element_size_m=0.25, adaptive_passes=1)).element_light()
     assert np.array_equal(run(), run())
+
+
+def test_textured_floor_elements_reflect_their_own_squares():
+    """A 2 x 2 checker (0.1 / 0.7) on a floor whose UVs span it once: elements inside a square reflect that
+    square's value exactly, not the image mean 0.4."""
+    pixels = np.array([[0.1, 0.7], [0.7, 0.1]])[..., None].repeat(3, axis=2)
+    floor = quad((0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0))
+    uv = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], dtype=float)
+    material = Material("checker", (0.4, 0.4, 0.4), texture=ReflectanceTexture(pixels))
+    scene = Scene(floor, np.zeros(2, int), [material], lights=[SunLight("sun", (0, 0, -1), 1.0)], triangle_uv=uv)
+    mesh = build_mesh(scene, 0.5, 0.25)
+    elements = elements_of(mesh, scene)
+    x, y = elements.centroid[:, 0], elements.centroid[:, 1]
+    inside = (np.abs(x - 1.0) > 0.2) & (np.abs(y - 1.0) > 0.2)  # away from the squares' borders
+    expected = np.where((x < 1.0) == (y < 1.0), 0.1, 0.7)
+    assert elements.reflectance[inside, 0] == pytest.approx(expected[inside])
+
+
+def test_texture_with_reflectance_one_is_refused():
+    bad = Material("glowing paint", (0.5,) * 3, texture=ReflectanceTexture(np.full((2, 2, 3), 1.2)))
+    with pytest.raises(SceneError, match="glowing paint"):
+        Scene(quad((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)), np.zeros(2, int), [bad],
+              lights=[SunLight("sun", (0, 0, -1), 1.0)])

@@ -14,10 +14,14 @@ def load_extension():
     return runpy.run_path(str(ROOT / "radiosity_addon" / "__main__.py"), run_name="loader")["load_package"]()
 
 
+def make_sample(name: str, folder: Path) -> Path:
+    """Make the sample scene ``name`` (cornell_box, room) with sample_blends/make_samples.py into ``folder``."""
+    runpy.run_path(str(ROOT / "sample_blends" / "make_samples.py"), run_name="samples")[name](folder / f"{name}.blend")
+    return folder / f"{name}.blend"
+
+
 def make_cornell_box(folder: Path) -> Path:
-    runpy.run_path(str(ROOT / "sample_blends" / "make_samples.py"), run_name="samples")["cornell_box"](
-        folder / "cornell_box.blend")
-    return folder / "cornell_box.blend"
+    return make_sample("cornell_box", folder)
 
 
 def corner_colors(mesh, name: str) -> np.ndarray:
@@ -28,14 +32,15 @@ def corner_colors(mesh, name: str) -> np.ndarray:
     return rgba.reshape(-1, 4)[:, :3].astype(np.float64)
 
 
-def converged_cycles(scene, samples: int) -> None:
-    """Cycles on the CPU as a converged reference: enough bounces for multiple reflection to finish (the default
-    4 diffuse bounces cut off ~10% of the red light in the Cornell box, whose white walls reflect 89% of it) and no
-    clamping."""
+def converged_cycles(scene, samples: int, seed: int = 1) -> None:
+    """Cycles on the CPU as a converged reference: exactly ``samples`` per texel (no adaptive sampling, which
+    stops at a noise threshold), enough bounces for multiple reflection to finish (the default 4 diffuse bounces
+    cut off ~10% of the red light in the Cornell box, whose white walls reflect 89% of it) and no clamping."""
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = samples
-    scene.cycles.seed = 1
+    scene.cycles.seed = seed
+    scene.cycles.use_adaptive_sampling = False
     scene.cycles.max_bounces = scene.cycles.diffuse_bounces = 64
     scene.cycles.sample_clamp_direct = scene.cycles.sample_clamp_indirect = 0.0
 
@@ -79,7 +84,7 @@ def add_light(kind: str, location, energy: float, **data):
 
 
 def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples: int, margin: int = 0,
-                         passes=("DIRECT", "INDIRECT")):
+                         passes=("DIRECT", "INDIRECT"), seed: int = 1):
     """Cycles' Diffuse bake (Direct + Indirect by default, no Color) of the objects into one new float image on the
     given UV map; returns (height, width, 3) light (row 0 at the bottom) and the seconds the bake took. The image
     node is added to (and removed from) every material of the objects."""
@@ -87,7 +92,7 @@ def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples:
 
     import bpy
     scene = bpy.context.scene
-    converged_cycles(scene, samples)
+    converged_cycles(scene, samples, seed)
     scene.render.bake.margin = margin
     image = bpy.data.images.new("cycles bake", width, height, alpha=False, float_buffer=True)
     nodes = []

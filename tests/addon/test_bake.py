@@ -88,3 +88,26 @@ def test_collection_instance_casts_shadow_and_receives_light(empty_scene):
     corners = np.array([mesh.vertices[loop.vertex_index].co for loop in mesh.loops])
     on_block_top = np.abs(corners[:, 2] - 0.75) < 1e-4
     assert on_block_top.any() and corner_colors(mesh, "Radiosity")[on_block_top].min() > 0
+
+
+def test_image_texture_is_averaged_per_element(empty_scene, extension):
+    """A 2 x 2 checker image (0.1 / 0.7, linear) on the base colour: elements inside a square reflect that square,
+    not the image mean (so a checker floor bleeds the colour it really has under each element)."""
+    floor = grid_plane("Floor", 2.0, 1)
+    image = bpy.data.images.new("checker", 2, 2, float_buffer=True)
+    image.pixels.foreach_set(np.array([[0.1] * 3 + [1], [0.7] * 3 + [1], [0.7] * 3 + [1], [0.1] * 3 + [1]],
+                                      dtype=np.float32).ravel())
+    material = floor.data.materials[0]
+    texture = material.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    material.node_tree.links.new(texture.outputs["Color"],
+                                 material.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    from radiosity_baker.core.mesh import build_mesh, elements_of
+    export = extension.radiosity_addon.export.export_scene(bpy.context)
+    elements = elements_of(build_mesh(export.scene, 0.5, 0.25), export.scene)
+    x, y = elements.centroid[:, 0], elements.centroid[:, 1]
+    inside = (np.abs(x) > 0.2) & (np.abs(y) > 0.2)
+    expected = np.where((x < 0) == (y < 0), 0.1, 0.7)
+    assert elements.reflectance[inside, 0] == pytest.approx(expected[inside])
+    assert export.scene.materials[0].reflectance == pytest.approx((0.4, 0.4, 0.4))
