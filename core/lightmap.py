@@ -45,12 +45,13 @@ class LightmapSettings:
 @dataclass
 class Lightmap:
     """light: (height, width, 3) float32; covered: (height, width) texels a triangle covers (before dilation);
-    moved_texels: sample points pushed out of geometry; seconds: time per phase."""
+    moved: (height, width) texels whose sample point was inside closed geometry and was pushed out of it;
+    seconds: time per phase."""
 
     light: np.ndarray
     covered: np.ndarray
+    moved: np.ndarray
     texel_count: int
-    moved_texels: int
     seconds: dict[str, float] = field(default_factory=dict)
 
 
@@ -88,8 +89,10 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     covered = np.zeros(height * width, dtype=bool)
     covered[texels.pixel] = True
     image, _ = dilate(image.reshape(height, width, 3), covered.reshape(height, width), settings.dilation_texels)
-    return Lightmap(image.astype(np.float32), covered.reshape(height, width), len(texels.pixel), int(moved.sum()),
-                    seconds)
+    moved_texels = np.zeros(height * width, dtype=bool)
+    moved_texels[texels.pixel[moved]] = True
+    return Lightmap(image.astype(np.float32), covered.reshape(height, width), moved_texels.reshape(height, width),
+                    len(texels.pixel), seconds)
 
 
 def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, points, moved,

@@ -169,9 +169,13 @@ def build_mesh(scene: Scene, patch_size_m: float, element_size_m: float) -> Elem
         triangle_k=k, triangle_first_patch=first_patch,
         node_bary=uniform_subdivision_batch(k[patch_triangle], cell), node_triangle=patch_triangle,
         node_patch=np.arange(len(patch_triangle)), node_children=np.full((len(patch_triangle), 4), -1))
-    depth = max(0, int(round(np.log2(max(patch_size_m / element_size_m, 1.0)))))
-    for _ in range(depth):
-        mesh.split(mesh.leaves)
+    # Split each patch until its elements reach the element size: a patch on a small triangle (smaller than
+    # patch_size_m) gets fewer splits, so dense meshes do not get elements far below the size asked for.
+    patch_edge = edges.max(axis=1) / k
+    depth = np.round(np.log2(np.maximum(patch_edge / element_size_m, 1.0))).astype(np.int64)
+    for level in range(int(depth.max(initial=0))):
+        leaves = mesh.leaves
+        mesh.split(leaves[depth[mesh.node_triangle[leaves]] > level])
     return mesh
 
 

@@ -107,7 +107,7 @@ def apply(job: Job) -> dict:
         "warnings": warnings,
     }
     if job.lightmap is not None:
-        report["lightmap"] = {"texels": job.lightmap.texel_count, "moved_texels": job.lightmap.moved_texels,
+        report["lightmap"] = {"texels": job.lightmap.texel_count, "moved_texels": int(job.lightmap.moved.sum()),
                               "texels_per_metre": job.lightmap_plan.layout.texels_per_metre,
                               "timings": job.lightmap.seconds, "settings": vars(job.lightmap_settings).copy()}
     return report

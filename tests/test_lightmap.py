@@ -3,7 +3,7 @@ plane give their exact light, and a block standing on a floor leaks no light und
 import numpy as np
 import pytest
 
-from core import BakeSettings, Material, Scene, SunLight, bake
+from core import BakeSettings, Material, Scene, SunLight, World, bake
 from core.atlas import layout_atlas, pack_blocks
 from core.lightmap import LightmapSettings, bake_lightmap, dilate
 from core.texels import rasterize
@@ -98,3 +98,39 @@ def test_same_seed_same_lightmap():
     first = lightmap_of(scene, [floor, block], LightmapSettings(gather_samples_per_edge=3))[0].light
     second = lightmap_of(scene, [floor, block], LightmapSettings(gather_samples_per_edge=3))[0].light
     assert np.array_equal(first, second)
+
+
+def test_seams_and_contacts_between_touching_cubes_on_a_floor():
+    """Two unit cubes side by side on a floor in sunlight. Texels far apart in the atlas that sample the same place
+    (a chart border, or where the two cubes' coplanar faces meet) agree to 2% (sunlight is exact there: any jump
+    is a seam artefact); the face of one cube that the sun would light but the other cube covers stays dark (no
+    leak); floor texels in front of the cubes are as lit as the open floor (no dark blotch from samples inside)."""
+    floor = quad((-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0))
+    left = np.concatenate(box_faces((-1, -0.5, 0), (0, 0.5, 1), inward=False))
+    right = np.concatenate(box_faces((0, -0.5, 0), (1, 0.5, 1), inward=False))
+    triangles = np.concatenate([floor, left, right])
+    sun = SunLight("sun", (0.3, 0.6, -0.8), strength_w_m2=3.0)
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)], lights=[sun])
+    result, layout, corner_uv = lightmap_of(scene, [floor, left, right], LightmapSettings(indirect="interpolate"),
+                                            16.0, BakeSettings(patch_size_m=0.5, element_size_m=0.25))
+    texels = rasterize(corner_uv, layout.width, layout.height)
+    points = np.einsum("mc,mck->mk", texels.barycentric, triangles[texels.triangle])
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])[texels.triangle]
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    light = result.light.reshape(-1, 3)[texels.pixel, 0]
+    x, y = texels.pixel % layout.width, texels.pixel // layout.width
+    cell = np.round(points / (0.25 / 16.0)).astype(np.int64)  # a quarter texel
+    order = np.lexsort(cell.T[::-1])
+    same = (np.diff(cell[order], axis=0) == 0).all(axis=1)
+    a, b = order[:-1][same], order[1:][same]
+    apart = (np.abs(x[a] - x[b]) + np.abs(y[a] - y[b]) > 3) & ((normals[a] * normals[b]).sum(axis=1) > 0.99)
+    assert apart.sum() > 20
+    assert np.abs(light[a][apart] - light[b][apart]).max() <= 0.02 * np.maximum(light[a][apart], light[b][apart]).max()
+    covered_face = (normals[:, 0] < -0.99) & (np.abs(points[:, 0]) < 1e-9) & (np.abs(points[:, 1]) < 0.4) & \
+        (points[:, 2] > 0.1) & (points[:, 2] < 0.9)  # the right cube's -x face, against the left cube
+    assert covered_face.sum() > 50
+    assert light[covered_face].max() < 0.01 * light.max()
+    on_floor = np.abs(points[:, 2]) < 1e-9
+    in_front = on_floor & (points[:, 1] > -0.65) & (points[:, 1] < -0.55) & (np.abs(points[:, 0]) < 0.8)
+    open_floor = on_floor & (points[:, 1] < -2.0)
+    assert light[in_front].min() > 0.95 * np.median(light[open_floor])

@@ -128,7 +128,7 @@ def test_energy_balance_absorbed_equals_emitted():
 def reciprocity_errors(scene, samples_per_edge):
     """|A_i F_ij / (A_j F_ji) - 1| for patch pairs that see each other (F > 1e-3) and are over 1.5 m apart
     (the element-centroid quadrature of the receiving patch is not meant for neighbours sharing an edge)."""
-    mesh = build_mesh(scene, patch_size_m=1.0, element_size_m=0.125)
+    mesh = build_mesh(scene, patch_size_m=1.0, element_size_m=0.09)  # elements of at most ~1/8 m on every patch
     elements, patches = elements_of(mesh, scene), Patches.of(mesh)
     factors = FormFactors(RayCastRows(RayCaster(scene.triangles), patches, samples_per_edge, 1e-5),
                           len(patches.area_m2), 2 ** 30, threads=2)

@@ -9,6 +9,7 @@ import pytest
 
 from blender_setup import add_light, cycles_lightmap_bake, grid_plane, make_cornell_box, uv_coverage
 SIZE = 128
+MEASURED_DRAFT_ERROR = 0.09  # relative RMSE of the Draft lightmap against converged Cycles (docs/benchmarks.md)
 
 from test_cli import run_cli, scene_file  # noqa: F401 (a fixture)
 
@@ -36,6 +37,12 @@ def test_cli_lightmap_outputs_and_determinism(scene_file, tmp_path):
     assert floor.uv_layers.active.name == "UVMap"
     image = bpy.data.images["Radiosity Lightmap"]
     assert tuple(image.size) == (64, 64)
+    # Blender's glTF exporter writes the lightmap UV map as the second texture coordinate set
+    bpy.ops.preferences.addon_enable(module="io_scene_gltf2")
+    bpy.ops.export_scene.gltf(filepath=str(tmp_path / "scene.gltf"), export_format="GLTF_SEPARATE")
+    gltf = json.loads((tmp_path / "scene.gltf").read_text())
+    floor_mesh = gltf["meshes"][next(n["mesh"] for n in gltf["nodes"] if n["name"] == "Floor")]
+    assert all("TEXCOORD_1" in primitive["attributes"] for primitive in floor_mesh["primitives"])
 
 
 def test_lightmap_name_clash_is_refused(scene_file, tmp_path):
@@ -44,32 +51,34 @@ def test_lightmap_name_clash_is_refused(scene_file, tmp_path):
 
 
 def test_cornell_lightmap_matches_cycles(tmp_path, extension):
-    """Draft lightmap at 128 x 128 against Cycles at 1024 samples on the same UV map, over the texels both bake.
+    """Draft lightmap at 128 x 128 against Cycles on the same UV map (two 1024-sample bakes: their mean is the
+    reference, their difference its noise, which is removed from the squared error), over the texels Cycles bakes.
 
-    Measured (bpy 5.2.3): per-surface means 0.89-1.00 of Cycles' (red lowest), relative RMSE 11-13% on walls and
-    blocks, 24% on the floor (block shadows and the bright patch under the light, at 4 mm texels). The ceiling,
-    whose rim sits 0.5 mm above the light's back face (light that changes within a millimetre), is left out. The
-    issue's goal (3% at High) is not reached; this guards the Draft preset CI can afford.
+    Left out: the ceiling (its rim sits 0.5 mm above the light's back face: light that changes within a
+    millimetre) and texels whose centre lies inside a block (Cycles bakes the dark inside; we sample the visible
+    floor beside it). MEASURED_DRAFT_ERROR is what this measured; the bound leaves room for Cycles' noise.
     """
     bpy.ops.wm.open_mainfile(filepath=str(make_cornell_box(tmp_path)))
-    settings = bpy.context.scene.radiosity
-    settings.quality, settings.target, settings.lightmap_resolution = "DRAFT", "LIGHTMAP", SIZE
-    settings.lightmap_padding = 2
-    settings.lightmap_folder = str(tmp_path)
-    assert bpy.ops.radiosity.bake() == {"FINISHED"}
-    from radiosity_baker.core.image_file import read_image
-    ours = read_image(str(tmp_path / "Radiosity_Lightmap.exr"))[..., :3]
+    job = extension.radiosity_addon.job
+    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
+    from radiosity_baker.radiosity_addon.presets import UserSettings
+    bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs(
+        "LIGHTMAP", lightmap=LightmapOptions(resolution=SIZE, padding=2), lightmap_folder=str(tmp_path)))
+    job.solve(bake, lambda fraction, message: None, lambda: False)
+    job.apply(bake)
+    ours = bake.lightmap.light.astype(np.float64)
     names = ["floor", "back wall", "left wall", "right wall", "short block", "tall block"]
     objects = [bpy.data.objects[name] for name in names]
-    cycles, _ = cycles_lightmap_bake(objects, "Lightmap", SIZE, SIZE, samples=1024)
-    errors, ratios = {}, {}
-    for name in names:
-        mask = uv_coverage([bpy.data.objects[name]], "Lightmap", SIZE, SIZE)
-        ratios[name] = ours[mask].mean(axis=0) / cycles[mask].mean(axis=0)
-        errors[name] = np.sqrt(np.mean((ours[mask] - cycles[mask]) ** 2)) / cycles[mask].mean()
-    for name in names:
-        assert ratios[name] == pytest.approx(1.0, abs=0.13), name
-        assert errors[name] <= (0.30 if name == "floor" else 0.16), name
+    first, _ = cycles_lightmap_bake(objects, "Lightmap", SIZE, SIZE, samples=1024, seed=1)
+    second, _ = cycles_lightmap_bake(objects, "Lightmap", SIZE, SIZE, samples=1024, seed=2)
+    reference = 0.5 * (first + second)
+    mask = uv_coverage(objects, "Lightmap", SIZE, SIZE) & ~bake.lightmap.moved
+    noise_variance = np.mean((first[mask] - second[mask]) ** 2) / 4.0
+    error = np.sqrt(max(np.mean((ours[mask] - reference[mask]) ** 2) - noise_variance, 0.0)) / reference[mask].mean()
+    assert error <= MEASURED_DRAFT_ERROR + 0.03
+    for obj in objects:
+        own = uv_coverage([obj], "Lightmap", SIZE, SIZE) & mask
+        assert ours[own].mean(axis=0) == pytest.approx(reference[own].mean(axis=0), rel=0.08), obj.name
 
 
 def material_snapshot(material):
