@@ -57,6 +57,8 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--lightmap-dir", metavar="DIR",
                         help="folder for the lightmap .exr (default: the folder of OUT.blend)")
     parser.add_argument("--float", action="store_true", help="32-bit float EXR (default: 16-bit half)")
+    parser.add_argument("--png-exposure", type=float, metavar="STOPS",
+                        help="also write an 8-bit sRGB PNG of the lightmap x 2^STOPS (low dynamic range)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the stratified samples")
     return parser
 
@@ -100,7 +102,7 @@ def _bake(args) -> dict:
                         args.residual, args.light_samples, args.form_factors, args.seed, args.gather_samples,
                         args.texels_per_meter or 0.0)
     lightmap = LightmapOptions(args.uv_map, args.lightmap_image, args.texels_per_meter, args.resolution,
-                               args.padding, half=not args.float)
+                               args.padding, half=not args.float, png_exposure=args.png_exposure)
     outputs = Outputs(args.target.upper(), args.attribute, args.radiosity_mesh, lightmap, folder)
     started = time.perf_counter()
     try:

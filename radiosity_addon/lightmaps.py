@@ -30,7 +30,8 @@ MAX_ATLAS_SIZE = 8192
 class LightmapOptions:
     """uv_map: name of the UV map to make; image_name: of the Blender image and its file; texels_per_metre or
     resolution (a square atlas) sets the density (neither: the preset's); padding: texels between charts;
-    half: 16-bit float EXR (else 32-bit)."""
+    half: 16-bit float EXR (else 32-bit); png_exposure: also write an 8-bit sRGB PNG of the light x 2^stops
+    (core.image_file.write_png's documented encoding) for engines that want low dynamic range."""
 
     uv_map: str = "Lightmap"
     image_name: str = "Radiosity Lightmap"
@@ -38,6 +39,7 @@ class LightmapOptions:
     resolution: int | None = None
     padding: int = 4
     half: bool = True
+    png_exposure: float | None = None
 
 
 @dataclass
@@ -125,8 +127,14 @@ def write_lightmap(plan: LightmapPlan, light: np.ndarray, metadata: dict, folder
             del obj[OFFSET_PROPERTY]
     image = _write_image(options, light, metadata, folder)
     path = bpy.path.abspath(image.filepath) if not image.packed_file else None
-    return [{"name": item.name, "uv_map": options.uv_map, "image": path or f"(packed) {image.name}",
-             "resolution": [layout.width, layout.height], "color_attribute": None} for item in plan.objects]
+    entry = {"uv_map": options.uv_map, "image": path or f"(packed) {image.name}",
+             "resolution": [layout.width, layout.height], "color_attribute": None}
+    if options.png_exposure is not None and folder:
+        from ..core.image_file import write_png
+        entry["png"] = os.path.join(folder, bpy.path.clean_name(options.image_name) + ".png")
+        write_png(entry["png"], light, options.png_exposure,
+                  {"radiosity:encoding": f"sRGB(clamp(light x 2^{options.png_exposure:g}, 0, 1)), 8 bits"})
+    return [{"name": item.name, **entry} for item in plan.objects]
 
 
 def _write_uv_map(mesh, name: str, corner_loops: np.ndarray, corner_uv: np.ndarray) -> None:

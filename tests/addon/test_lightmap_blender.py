@@ -22,7 +22,8 @@ def test_cli_lightmap_outputs_and_determinism(scene_file, tmp_path):
         folder = tmp_path / run
         folder.mkdir()
         code, stderr = run_cli(scene_file, "-o", folder / "out.blend", "--report", folder / "report.json",
-                               "--quality", "draft", "--target", "both", "--resolution", "64")
+                               "--quality", "draft", "--target", "both", "--resolution", "64",
+                               "--png-exposure", "0")
         assert code == 0, stderr
         files.append(folder / "Radiosity_Lightmap.exr")
     report = json.loads((tmp_path / "a" / "report.json").read_text())
@@ -31,6 +32,9 @@ def test_cli_lightmap_outputs_and_determinism(scene_file, tmp_path):
         assert entry["uv_map"] == "Lightmap" and entry["resolution"] == [64, 64]
         assert entry["image"] == str(files[0]) and entry["color_attribute"] == "Radiosity"
     assert filecmp.cmp(files[0], files[1], shallow=False)
+    from radiosity_baker.core.image_file import read_image, srgb_encode
+    exr, png = read_image(str(files[0]))[..., :3], read_image(report["objects"][0]["png"])[..., :3]
+    assert png == pytest.approx(srgb_encode(np.clip(exr, 0.0, 1.0)), abs=1 / 255 + 2e-3)  # 8 bits, half floats
     bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "a" / "out.blend"))
     floor = bpy.data.objects["Floor"].data
     assert [uv.name for uv in floor.uv_layers] == ["UVMap", "Lightmap"]
