@@ -80,14 +80,14 @@ def solve(job: Job, progress, cancelled) -> None:
 
 def apply(job: Job) -> dict:
     """Write the outputs; returns the report (REPORT.json's contract, docs/design in the README)."""
-    objects, warnings = [], list(job.export.warnings)
-    if job.outputs.vertex_colors:
-        written, more = write_vertex_colors(job.export, job.solution, job.outputs.attribute)
-        objects, warnings = written, warnings + more
-    if job.lightmap_plan is not None:
+    objects, warnings, entries = [], list(job.export.warnings), []
+    if job.lightmap_plan is not None:  # first: its files are what can still fail, before the .blend changes
         entries = write_lightmap(job.lightmap_plan, job.lightmap.light, _metadata(job), job.outputs.lightmap_folder)
-        objects = _merge(objects, entries)
         warnings += job.lightmap_plan.warnings
+    if job.outputs.vertex_colors:
+        objects, more = write_vertex_colors(job.export, job.solution, job.outputs.attribute)
+        warnings += more
+    objects = _merge(objects, entries)
     if job.outputs.create_radiosity_mesh:
         obj = write_radiosity_mesh(job.solution, job.outputs.attribute)
         objects.append({"name": obj.name, "color_attribute": job.outputs.attribute, "uv_map": None, "image": None,

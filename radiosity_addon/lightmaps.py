@@ -115,6 +115,7 @@ def _check_image_name_free(name: str) -> None:
 def write_lightmap(plan: LightmapPlan, light: np.ndarray, metadata: dict, folder: str) -> list[dict]:
     """UV maps on the meshes, the EXR file and the Blender image; returns the report's per-object entries."""
     options, layout = plan.options, plan.layout
+    path = _write_files(options, light, metadata, folder)  # may fail: nothing in the .blend has changed yet
     written: dict[str, np.ndarray] = {}
     for item, corner_uv in zip(plan.objects, layout.corner_uv):
         obj, mesh = bpy.data.objects[item.name], bpy.data.meshes[item.mesh_name]
@@ -125,15 +126,11 @@ def write_lightmap(plan: LightmapPlan, light: np.ndarray, metadata: dict, folder
         written[mesh.name] = corner_uv
         if OFFSET_PROPERTY in obj:
             del obj[OFFSET_PROPERTY]
-    image = _write_image(options, light, metadata, folder)
-    path = bpy.path.abspath(image.filepath) if not image.packed_file else None
-    entry = {"uv_map": options.uv_map, "image": path or f"(packed) {image.name}",
+    image = _load_image(options.image_name, path, pack=not folder)
+    entry = {"uv_map": options.uv_map, "image": f"(packed) {image.name}" if image.packed_file else path,
              "resolution": [layout.width, layout.height], "color_attribute": None}
     if options.png_exposure is not None and folder:
-        from ..core.image_file import write_png
-        entry["png"] = os.path.join(folder, bpy.path.clean_name(options.image_name) + ".png")
-        write_png(entry["png"], light, options.png_exposure,
-                  {"radiosity:encoding": f"sRGB(clamp(light x 2^{options.png_exposure:g}, 0, 1)), 8 bits"})
+        entry["png"] = os.path.splitext(path)[0] + ".png"
     return [{"name": item.name, **entry} for item in plan.objects]
 
 
@@ -145,17 +142,30 @@ def _write_uv_map(mesh, name: str, corner_loops: np.ndarray, corner_uv: np.ndarr
     mesh[OWNED_UV] = name
 
 
-def _write_image(options: LightmapOptions, light: np.ndarray, metadata: dict, folder: str):
-    from ..core.image_file import write_exr
-    pack = not folder
+def _write_files(options: LightmapOptions, light: np.ndarray, metadata: dict, folder: str) -> str:
+    """The EXR (and the optional PNG) in ``folder``, or the EXR alone in a temporary folder when the image is to
+    be packed; returns the EXR's path."""
+    from ..core.image_file import write_exr, write_png
     target = folder or tempfile.mkdtemp(prefix="radiosity_")
-    os.makedirs(target, exist_ok=True)
+    try:
+        os.makedirs(target, exist_ok=True)
+    except OSError as error:
+        raise SceneError(f"Cannot write lightmaps into the folder '{target}': {error.strerror}.") from error
     path = os.path.join(target, bpy.path.clean_name(options.image_name) + ".exr")
     write_exr(path, light, options.half, metadata)
-    image = bpy.data.images.get(options.image_name)
+    if options.png_exposure is not None and folder:
+        write_png(os.path.splitext(path)[0] + ".png", light, options.png_exposure,
+                  {"radiosity:encoding": f"sRGB(clamp(light x 2^{options.png_exposure:g}, 0, 1)), 8 bits"})
+    return path
+
+
+def _load_image(name: str, path: str, pack: bool):
+    """The Blender image ``name`` showing the EXR (replacing the file of the one a previous bake made); packed
+    into the .blend, and the temporary file removed, when ``pack``."""
+    image = bpy.data.images.get(name)
     if image is None:
         image = bpy.data.images.load(path)
-        image.name = options.image_name
+        image.name = name
     else:
         image.filepath = path
         image.source = "FILE"
@@ -165,7 +175,7 @@ def _write_image(options: LightmapOptions, light: np.ndarray, metadata: dict, fo
     if pack:
         image.pack()
         os.remove(path)
-        os.rmdir(target)
+        os.rmdir(os.path.dirname(path))
     return image
 
 

@@ -42,15 +42,10 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         try:
             job = bake_job.prepare(context, *_user_args(context))
             bake_job.solve(job, lambda fraction, message: None, lambda: False)
-            report = bake_job.apply(job)
         except _errors() as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        for warning in report["warnings"]:
-            self.report({"WARNING"}, warning)
-        STATUS["summary"] = _summary(report)
-        self.report({"INFO"}, STATUS["summary"])
-        return {"FINISHED"}
+        return self._apply(job)
 
     def invoke(self, context, event):
         try:
@@ -99,15 +94,20 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
             self.report({"WARNING"}, STATUS["summary"])
             return {"CANCELLED"}
         if error is not None:
-            STATUS["summary"] = f"Bake failed: {error}"
-            self.report({"ERROR"}, STATUS["summary"])
-            return {"CANCELLED"}
+            return self._failed(error)
+        return self._apply(self._job)
+
+    def _failed(self, error):
+        STATUS["summary"] = f"Bake failed: {error}"
+        self.report({"ERROR"}, STATUS["summary"])
+        return {"CANCELLED"}
+
+    def _apply(self, job):
+        """Write the results (main thread) and report; a file that cannot be written fails the bake."""
         try:
-            report = bake_job.apply(self._job)
+            report = bake_job.apply(job)
         except _errors() as error:
-            STATUS["summary"] = f"Bake failed: {error}"
-            self.report({"ERROR"}, STATUS["summary"])
-            return {"CANCELLED"}
+            return self._failed(error)
         for warning in report["warnings"]:
             self.report({"WARNING"}, warning)
         STATUS["summary"] = _summary(report)

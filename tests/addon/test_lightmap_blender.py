@@ -121,3 +121,24 @@ def test_preview_hooks_up_materials_and_restores_them_exactly(empty_scene, tmp_p
     assert images == [bpy.data.images["Radiosity Lightmap"]]
     assert bpy.ops.radiosity.preview() == {"FINISHED"}
     assert material_snapshot(material) == before
+
+
+def test_unwritable_lightmap_folder_fails_before_changing_the_file(empty_scene, extension, tmp_path):
+    """The EXR is written before anything in the .blend changes: a folder that cannot be written fails the bake
+    with a message naming the file, and UV maps, attributes and images stay as they were."""
+    from test_bake import scene_state
+    grid_plane("Floor", 2.0, 2)
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    job = extension.radiosity_addon.job
+    from radiosity_baker.core import SceneError
+    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
+    from radiosity_baker.radiosity_addon.presets import UserSettings
+    blocked = tmp_path / "not a folder"
+    blocked.write_text("a file where the lightmap folder should be")
+    bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs(
+        "BOTH", lightmap=LightmapOptions(resolution=32), lightmap_folder=str(blocked)))
+    job.solve(bake, lambda fraction, message: None, lambda: False)
+    before = scene_state(), sorted(image.name for image in bpy.data.images)
+    with pytest.raises(SceneError, match="not a folder"):
+        job.apply(bake)
+    assert (scene_state(), sorted(image.name for image in bpy.data.images)) == before
