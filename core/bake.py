@@ -6,7 +6,6 @@ call. Everything is deterministic for a given scene, settings and seed.
 from __future__ import annotations
 
 import os
-import time
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -15,7 +14,7 @@ from . import adaptive
 from .direct import DirectLighting
 from .lights import direct_irradiance
 from .mesh import build_mesh, elements_of
-from .progress import Progress, never_cancelled, no_progress
+from .progress import Progress, Timer, never_cancelled, no_progress
 from .raycast import RayCaster
 from .scene import Scene, SceneError
 from .shooting import HemicubeRows, Patches, RayCastRows
@@ -83,7 +82,7 @@ class BakeSettings:
 def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progress = no_progress,
          cancelled=never_cancelled) -> Solution:
     """Solve the scene's diffuse light; raises BakeCancelled if ``cancelled()`` turns True."""
-    timer = _Timer()
+    timer = Timer()
     offset = RAY_OFFSET_FRACTION * scene.size_m
     mesh = build_mesh(scene, settings.patch_size_m, settings.element_size_m)
     caster = RayCaster(scene.triangles, settings.threads or None)
@@ -162,14 +161,3 @@ def _refine(mesh, scene, state, caster, factors, criteria, offset, settings, can
     refined_state = RadiosityState(refined, state.patches, direct, irradiance, state.shot, state.injected_power_w,
                                    state.history)
     return refined_state
-
-
-class _Timer:
-    def __init__(self):
-        self.laps: dict[str, float] = {}
-        self._last = time.perf_counter()
-
-    def lap(self, name: str) -> None:
-        now = time.perf_counter()
-        self.laps[name] = now - self._last
-        self._last = now

@@ -7,13 +7,12 @@ Blender stores pixels.
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .gather import final_gather
-from .progress import BakeCancelled, Progress, never_cancelled, no_progress
+from .progress import BakeCancelled, Progress, Timer, never_cancelled, no_progress
 from .scene import SceneError, triangle_areas
 from .texels import Texels, inset, push_out_of_geometry, rasterize, sample_points, subtexel_barycentrics
 
@@ -60,8 +59,7 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
                   cancelled=never_cancelled) -> Lightmap:
     """Light the texels of one atlas image: ``scene_triangle`` (t,) are the solved scene triangles it holds and
     ``corner_uv`` (t, 3, 2) their UVs in [0, 1]."""
-    started = time.perf_counter()
-    seconds = {}
+    timer = Timer()
     texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
     tri = np.asarray(scene_triangle, dtype=np.int64)[texels.triangle]
     scene = solution.scene
@@ -71,18 +69,18 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     points, moved = push_out_of_geometry(direct.caster, scene.triangles, points, normals, reach, offset)
     sub_points = _subtexel_points(scene.triangles[tri], texels, corner_uv, settings.subtexel_samples_per_edge,
                                   points, moved, 4 * offset)
-    seconds["texels"] = time.perf_counter() - started
+    timer.lap("texels")
     if cancelled():
         raise BakeCancelled("Bake cancelled before lighting the lightmap.")
     progress(0.0, f"Direct light on {len(points)} texels")
     light = _direct_light(solution, sub_points, normals, tri, texels.barycentric, settings.subtexel_samples_per_edge)
-    seconds["direct"] = time.perf_counter() - started - sum(seconds.values())
+    timer.lap("direct")
     if settings.indirect == "gather":
         light += final_gather(solution, direct.caster, sub_points, normals, settings.gather_samples_per_edge,
                               offset, settings.seed, cancelled, progress)
     else:
         light += solution.indirect_light(tri, texels.barycentric)
-    seconds["indirect"] = time.perf_counter() - started - sum(seconds.values())
+    timer.lap("indirect")
     light *= scene.reflectance[scene.material_index[tri]] > 0  # Cycles' "no Color" divides by albedo: black stays black
     image = np.zeros((height * width, 3))
     image[texels.pixel] = np.nan_to_num(light)
@@ -92,7 +90,7 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     moved_texels = np.zeros(height * width, dtype=bool)
     moved_texels[texels.pixel[moved]] = True
     return Lightmap(image.astype(np.float32), covered.reshape(height, width), moved_texels.reshape(height, width),
-                    len(texels.pixel), seconds)
+                    len(texels.pixel), timer.laps)
 
 
 def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, points, moved,

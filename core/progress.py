@@ -6,6 +6,7 @@ line and the tests.
 """
 from __future__ import annotations
 
+import time
 from typing import Callable
 
 Progress = Callable[[float, str], None]
@@ -22,3 +23,16 @@ def no_progress(fraction: float, message: str) -> None:
 def never_cancelled() -> bool:
     """Default cancel callback: never cancel."""
     return False
+
+
+class Timer:
+    """Seconds per named phase: ``lap(name)`` records the time since the previous lap (or the start)."""
+
+    def __init__(self):
+        self.laps: dict[str, float] = {}
+        self._last = time.perf_counter()
+
+    def lap(self, name: str) -> None:
+        now = time.perf_counter()
+        self.laps[name] = now - self._last
+        self._last = now
