@@ -74,7 +74,8 @@ def plan_lightmap(export: Export, options: LightmapOptions, default_texels_per_m
     for index, item in enumerate(objects):
         first_user.setdefault(item.mesh_name, index)
     meshes = [_unwrap_input(export, objects[index]) for index in first_user.values()]
-    mesh_of_object = [list(first_user).index(item.mesh_name) for item in objects]
+    position = {name: number for number, name in enumerate(first_user)}
+    mesh_of_object = [position[item.mesh_name] for item in objects]
     density = options.texels_per_metre if options.texels_per_metre or options.resolution else \
         default_texels_per_metre
     layout = layout_atlas(meshes, mesh_of_object, options.padding, MAX_ATLAS_SIZE, density,

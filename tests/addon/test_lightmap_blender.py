@@ -142,3 +142,33 @@ def test_unwritable_lightmap_folder_fails_before_changing_the_file(empty_scene, 
     with pytest.raises(SceneError, match="not a folder"):
         job.apply(bake)
     assert (scene_state(), sorted(image.name for image in bpy.data.images)) == before
+
+
+def test_linked_duplicates_get_their_own_lightmap_space(empty_scene, extension, tmp_path):
+    """Two objects sharing one mesh: the UV map holds the first one's block; the second carries an offset to a
+    block of its own, which does not overlap the first and holds its own (differently lit) light."""
+    from radiosity_baker.core.texels import rasterize
+    first = grid_plane("Tile", 1.0, 2, location=(-2.0, 0.0, 0.0))
+    second = first.copy()
+    second.name, second.location = "Tile twin", (2.0, 0.0, 0.0)
+    bpy.context.scene.collection.objects.link(second)
+    add_light("POINT", (-2.0, 0.0, 1.0), 100.0)  # over the first tile only
+    settings = empty_scene.radiosity
+    settings.quality, settings.target, settings.lightmap_resolution = "DRAFT", "LIGHTMAP", 64
+    settings.lightmap_folder = str(tmp_path)
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    from radiosity_baker.core.image_file import read_image
+    light = read_image(str(tmp_path / "Radiosity_Lightmap.exr"))[..., 0].ravel()
+    mesh = first.data
+    mesh.calc_loop_triangles()
+    loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers["Lightmap"].data.foreach_get("uv", uv)
+    corner_uv = uv.reshape(-1, 2)[loops].reshape(-1, 3, 2).astype(np.float64)
+    assert "radiosity_lightmap_offset" not in first
+    offset = np.array(second["radiosity_lightmap_offset"])
+    own = [set(rasterize(corner_uv + shift, 64, 64).pixel.tolist()) for shift in (0.0, offset)]
+    assert own[0] and own[1] and not own[0] & own[1]
+    lit, unlit = light[sorted(own[0])].mean(), light[sorted(own[1])].mean()
+    assert lit > 5 * unlit  # the light hangs over the first tile
