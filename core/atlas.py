@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import SceneError
+from .scene import SceneError, triangle_areas
 
 
 @dataclass
@@ -94,7 +94,7 @@ def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: li
         return _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre)
     if not resolution or resolution <= 0:
         raise SceneError("Give the lightmap either a texel density or a resolution.")
-    area_m2 = sum(_area(positions, triangles) for positions, triangles in
+    area_m2 = sum(float(triangle_areas(positions[triangles]).sum()) for positions, triangles in
                   (meshes[index] for index in mesh_of_object))
     density = np.sqrt(0.5 * resolution ** 2 / max(area_m2, 1e-12))
     while density * np.sqrt(area_m2) >= 1.0:
@@ -115,9 +115,3 @@ def _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre) 
     offsets, width, height = pack_blocks(sizes, max_size)
     corner_uv = [(blocks[m].corner_texels + offset) / [width, height] for m, offset in zip(mesh_of_object, offsets)]
     return AtlasLayout(corner_uv, width, height, float(texels_per_metre))
-
-
-def _area(positions: np.ndarray, triangles: np.ndarray) -> float:
-    corners = positions[triangles]
-    return float(0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]),
-                                      axis=1).sum())

@@ -81,7 +81,7 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     else:
         light += solution.indirect_light(tri, texels.barycentric)
     timer.lap("indirect")
-    light *= scene.reflectance[scene.material_index[tri]] > 0  # Cycles' "no Color" divides by albedo: black stays black
+    light = solution.black_stays_black(light, tri)
     image = np.zeros((height * width, 3))
     image[texels.pixel] = np.nan_to_num(light)
     covered = np.zeros(height * width, dtype=bool)

@@ -102,16 +102,22 @@ class Solution:
         interpolated. Points on "shadow only" triangles (not solved) get NaN; black channels of the reflectance
         get 0, as in Cycles' Diffuse bake without Color (it divides by the albedo).
         """
-        black = self.scene.reflectance[self.scene.material_index[np.asarray(scene_triangle, dtype=np.int64)]] == 0
         if self.direct is None or not direct_per_point:
-            return np.where(black, 0.0, self.interpolate(self.corner_light(), scene_triangle, barycentric))
+            return self.black_stays_black(self.interpolate(self.corner_light(), scene_triangle, barycentric),
+                                          scene_triangle)
         barycentric = np.asarray(barycentric, dtype=np.float64)
         triangles = self.scene.triangles[np.asarray(scene_triangle, dtype=np.int64)]
         points = np.einsum("mc,mck->mk", barycentric, triangles)
         solved, leaf, _ = self._leaves(scene_triangle, barycentric)
         points[solved] = inset(points[solved], self.state.elements.centroid[leaf], 4 * self.direct.offset_m)
         direct = self.direct_light(points, triangle_unit_normals(triangles), scene_triangle, barycentric)
-        return np.where(black, 0.0, direct + self.indirect_light(scene_triangle, barycentric))
+        return self.black_stays_black(direct + self.indirect_light(scene_triangle, barycentric), scene_triangle)
+
+    def black_stays_black(self, light: np.ndarray, scene_triangle: np.ndarray) -> np.ndarray:
+        """Light with 0 in the channels where the triangle's reflectance is 0: Cycles' Diffuse bake without Color
+        divides by the albedo, so a black surface bakes black."""
+        reflectance = self.scene.reflectance[self.scene.material_index[np.asarray(scene_triangle, dtype=np.int64)]]
+        return np.where(reflectance == 0, 0.0, light)
 
     def direct_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
                      barycentric: np.ndarray, samples_per_edge: int | None = None) -> np.ndarray:

@@ -48,6 +48,12 @@ class Export:
     input_triangles: np.ndarray
     warnings: list[str] = field(default_factory=list)
 
+    def scene_index_of_input(self) -> np.ndarray:
+        """Input triangle -> scene triangle (-1 where the scene dropped a zero-area triangle)."""
+        kept = np.full(len(self.input_triangles), -1)
+        kept[self.scene.triangle_source] = np.arange(len(self.scene.triangle_source))
+        return kept
+
 
 def export_scene(context) -> Export:
     """Read the evaluated scene; raises core.SceneError (naming the item) for what the core refuses."""

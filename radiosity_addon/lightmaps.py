@@ -80,7 +80,7 @@ def plan_lightmap(export: Export, options: LightmapOptions, default_texels_per_m
         default_texels_per_metre
     layout = layout_atlas(meshes, mesh_of_object, options.padding, MAX_ATLAS_SIZE, density,
                           None if options.texels_per_metre else options.resolution)
-    kept = _scene_index_of_input(export)
+    kept = export.scene_index_of_input()
     triangles, uvs = [], []
     for item, corner_uv in zip(objects, layout.corner_uv):
         scene_triangle = kept[item.first_triangle + np.arange(item.triangle_count)]
@@ -96,14 +96,6 @@ def _unwrap_input(export: Export, item: ExportedObject) -> tuple[np.ndarray, np.
     positions[item.corner_vertices] = triangles
     scale = getattr(getattr(bpy.data.objects[item.name], "radiosity", None), "lightmap_scale", 1.0)
     return positions * scale, item.corner_vertices
-
-
-def _scene_index_of_input(export: Export) -> np.ndarray:
-    """Input triangle -> scene triangle (-1 where the scene dropped a zero-area triangle)."""
-    scene = export.scene
-    kept = np.full(len(scene.triangle_source) + scene.dropped_triangles, -1)
-    kept[scene.triangle_source] = np.arange(len(scene.triangle_source))
-    return kept
 
 
 def _check_image_name_free(name: str) -> None:

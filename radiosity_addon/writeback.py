@@ -29,8 +29,7 @@ def check_attribute_name_free(export: Export, name: str) -> None:
 
 def write_vertex_colors(export: Export, solution, attribute: str) -> tuple[list[dict], list[str]]:
     """Write the light at every loop of every baked mesh; returns per-object report entries and warnings."""
-    kept = np.full(len(export.scene.triangle_source) + export.scene.dropped_triangles, -1)
-    kept[export.scene.triangle_source] = np.arange(len(export.scene.triangle_source))
+    kept = export.scene_index_of_input()
     written, outputs, warnings = {}, [], []
     for item in export.objects:
         if not item.writable:
