@@ -13,7 +13,7 @@ import numpy as np
 from . import adaptive
 from .direct import DirectLighting
 from .lights import direct_irradiance
-from .mesh import build_mesh, elements_of
+from .mesh import build_mesh, bury, elements_of
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .raycast import RayCaster
 from .scene import Scene, SceneError
@@ -88,7 +88,7 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
     caster = RayCaster(scene.triangles, settings.threads or None)
     patches = Patches.of(mesh)
     rows = _form_factor_rows(settings, caster, patches, mesh, scene, offset)
-    elements = elements_of(mesh, scene)
+    elements = bury(elements_of(mesh, scene), caster, scene, offset)
     progress(0.0, f"Direct light on {len(elements.node)} elements")
     direct = _direct(scene, caster, elements.centroid, elements.normal, offset, settings)
     timer.lap("direct light")
@@ -110,7 +110,7 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
     direct = DirectLighting(scene, caster, patches, emission, offset, settings.light_samples_per_edge, settings.seed)
     # The light the unshot residual would still bring, spread evenly (the ambient term), so an early stop does
     # not leave multiple reflection short (by about residual / (1 - rho) on bright walls).
-    ambient = state.ambient(factors.enclosure(patches))
+    ambient = state.ambient(factors.enclosure(state.patch_area_m2))
     return Solution(scene, mesh, state, weld_tolerance_m=offset / 10, seconds=timer.laps, rays_cast=caster.rays_cast,
                     direct=direct, ambient_irradiance=ambient)
 
@@ -145,6 +145,7 @@ def _refine(mesh, scene, state, caster, factors, criteria, offset, settings, can
     if len(split) == 0:
         return None
     refined, old = adaptive.split_elements(mesh, scene, elements, split)
+    refined = bury(refined, caster, scene, offset)
     new = np.flatnonzero(old < 0)
     new_elements = elements_of(mesh, scene, refined.node[new])
     new_direct = _direct(scene, caster, new_elements.centroid, new_elements.normal, offset, settings)

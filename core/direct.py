@@ -40,7 +40,7 @@ class DirectLighting:
             count = len(points)
             receivers = Elements(node=np.arange(count), patch=np.full(count, -1) if own_patch is None else own_patch,
                                  corners=None, centroid=points, normal=normals, area_m2=None, reflectance=None,
-                                 emitted_exitance=None)
+                                 emitted_exitance=None, exposed_m2=None)
             for start in range(0, len(self.emitters), 64):
                 block = self.emitters[start:start + 64]
                 total += rows.block(block, receivers) @ self.emission[start:start + 64]

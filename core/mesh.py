@@ -12,12 +12,14 @@ element mesh has no geometric cracks.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
 
+from .raycast import RayCaster
 from .scene import Scene, triangle_areas, triangle_unit_normals
+from .texels import inside_closed_geometry
 
 # Children of a 4-way split of (a, b, c), as barycentric combinations of the parent's corners:
 # three corner triangles, then the middle one (ab, bc, ca).
@@ -184,7 +186,9 @@ class Elements:
     """Flat per-element arrays for the solver (one row per leaf of an :class:`ElementMesh`).
 
     node: (n,) mesh node;  patch: (n,) patch index;  centroid, normal: (n, 3);  area_m2: (n,);
-    reflectance, emitted_exitance: (n, 3) (exitance = pi x emitted radiance, W m^-2).
+    reflectance, emitted_exitance: (n, 3) (exitance = pi x emitted radiance, W m^-2);
+    exposed_m2: (n,) the area through which the element exchanges light with the scene: its area, or 0 when it is
+    buried inside closed geometry (see ``bury``).
     """
 
     node: np.ndarray
@@ -195,6 +199,7 @@ class Elements:
     area_m2: np.ndarray
     reflectance: np.ndarray
     emitted_exitance: np.ndarray
+    exposed_m2: np.ndarray
 
 
 def elements_of(mesh: ElementMesh, scene: Scene, nodes: np.ndarray | None = None) -> Elements:
@@ -203,11 +208,22 @@ def elements_of(mesh: ElementMesh, scene: Scene, nodes: np.ndarray | None = None
     corners = mesh.corners(nodes)
     scene_triangle = mesh.triangle_scene[mesh.node_triangle[nodes]]
     material = scene.material_index[scene_triangle]
+    area_m2 = triangle_areas(corners)
     return Elements(
         node=nodes, patch=mesh.node_patch[nodes], corners=corners, centroid=corners.mean(axis=1),
-        normal=triangle_unit_normals(mesh.triangles[mesh.node_triangle[nodes]]), area_m2=triangle_areas(corners),
+        normal=triangle_unit_normals(mesh.triangles[mesh.node_triangle[nodes]]), area_m2=area_m2,
         reflectance=_element_reflectance(mesh, scene, nodes, scene_triangle, material),
-        emitted_exitance=np.pi * scene.emitted_radiance[material])
+        emitted_exitance=np.pi * scene.emitted_radiance[material], exposed_m2=area_m2.copy())
+
+
+def bury(elements: Elements, caster: RayCaster, scene: Scene, offset_m: float) -> Elements:
+    """The elements with ``exposed_m2`` 0 where the centroid lies inside closed geometry (floor under a box).
+
+    Such an element neither sees nor is seen, so it must not dilute its patch's mean radiosity: a patch half under
+    a box would otherwise shoot half its light into the box's bottom face, and the room would come out darker
+    (Cohen et al. 1986's patch mean assumes the whole patch radiates)."""
+    buried = inside_closed_geometry(caster, scene.triangles, elements.centroid, elements.normal, offset_m)
+    return replace(elements, exposed_m2=np.where(buried, 0.0, elements.area_m2))
 
 
 def _element_reflectance(mesh: ElementMesh, scene: Scene, nodes, scene_triangle, material) -> np.ndarray:

@@ -66,14 +66,14 @@ class FormFactors:
                 self.rows[:, block] = rows
                 self.rows_known[block] = True
 
-    def enclosure(self, patches: "Patches") -> float:
+    def enclosure(self, area: np.ndarray) -> float:
         """Area-weighted mean, over the patches that have shot, of the share of their light landing on the scene:
-        sum_i F(i -> j) A_i / A_j by reciprocity from patch j's coupling column (1 if none has shot)."""
+        sum_i F(i -> j) A_i / A_j by reciprocity from patch j's coupling column (1 if none has shot); ``area``
+        (P,) are the patches' exposed areas."""
         if not self.known.any():
             return 1.0
-        area = patches.area_m2
         column_sums = (self.coupling[:, self.known].astype(np.float64) * area[:, None]).sum(axis=0)
-        share = np.clip(column_sums / area[self.known], 0.0, 1.0)
+        share = np.clip(column_sums / np.maximum(area[self.known], 1e-300), 0.0, 1.0)
         return float((share * area[self.known]).sum() / area[self.known].sum())
 
     def gather(self, weights: np.ndarray, elements: Elements, cancelled: Callable[[], bool] = never_cancelled,
@@ -136,8 +136,13 @@ class RadiosityState:
     def start(cls, elements: Elements, patches: Patches, direct_irradiance: np.ndarray) -> "RadiosityState":
         state = cls(elements, patches, direct_irradiance, direct_irradiance.copy(),
                     np.zeros((len(patches.area_m2), 3)), 0.0)
-        state.injected_power_w = float((state.radiosity * elements.area_m2[:, None]).sum())
+        state.injected_power_w = float((state.radiosity * elements.exposed_m2[:, None]).sum())
         return state
+
+    @property
+    def patch_area_m2(self) -> np.ndarray:
+        """(P,) exposed area of each patch (buried elements left out)."""
+        return exposed_area(self.elements, self.patches)
 
     @property
     def radiosity(self) -> np.ndarray:
@@ -151,7 +156,7 @@ class RadiosityState:
     @property
     def residual(self) -> float:
         """Unshot power over injected power (emission plus first reflection of direct light)."""
-        return _residual(self.unshot, self.patches.area_m2, self.injected_power_w)
+        return _residual(self.unshot, self.patch_area_m2, self.injected_power_w)
 
     def ambient(self, enclosure: float = 1.0) -> np.ndarray:
         """(3,) ambient radiosity (Cohen et al. 1988, section 4.2): the light the unshot radiosity will still
@@ -159,21 +164,27 @@ class RadiosityState:
 
         ``enclosure`` (the share of light leaving a surface that lands on the scene: 1 in a closed room, less where
         light escapes) generalises it to open scenes: f unshot_mean / (1 - rho_avg f); the paper's term is f = 1."""
-        area = self.elements.area_m2[:, None]
+        area, patch_area = self.elements.exposed_m2[:, None], self.patch_area_m2[:, None]
         rho_avg = (self.elements.reflectance * area).sum(axis=0) / area.sum()
-        unshot_mean = (self.unshot * self.patches.area_m2[:, None]).sum(axis=0) / self.patches.area_m2.sum()
+        unshot_mean = (self.unshot * patch_area).sum(axis=0) / patch_area.sum()
         return enclosure * unshot_mean / (1.0 - rho_avg * enclosure)
 
 
 def patch_mean(values: np.ndarray, elements: Elements, patches: Patches) -> np.ndarray:
-    """Area-weighted mean of per-element values (n, c) over each patch: (P, c)."""
+    """Mean of per-element values (n, c) over each patch, weighted by exposed area: (P, c) (0 where nothing of
+    the patch is exposed)."""
     order = np.argsort(elements.patch, kind="stable")
     patch_of = elements.patch[order]
     starts = np.flatnonzero(np.r_[True, patch_of[1:] != patch_of[:-1]])
-    sums = np.add.reduceat(values[order] * elements.area_m2[order, None], starts, axis=0)
+    sums = np.add.reduceat(values[order] * elements.exposed_m2[order, None], starts, axis=0)
     out = np.zeros((len(patches.area_m2), values.shape[1]), dtype=np.result_type(values, np.float64))
     out[patch_of[starts]] = sums
-    return out / patches.area_m2[:, None]
+    return out / np.maximum(exposed_area(elements, patches), 1e-300)[:, None]
+
+
+def exposed_area(elements: Elements, patches: Patches) -> np.ndarray:
+    """(P,) sum of the exposed areas of each patch's elements."""
+    return np.bincount(elements.patch, weights=elements.exposed_m2, minlength=len(patches.area_m2))
 
 
 def _residual(unshot: np.ndarray, patch_area: np.ndarray, injected_power_w: float) -> float:
@@ -185,7 +196,7 @@ def solve_progressive(state: RadiosityState, factors: FormFactors, residual_thre
                       cancelled: Callable[[], bool] = never_cancelled) -> RadiosityState:
     """Shoot the patch with the most unshot power until the residual is below ``residual_threshold``."""
     started = time.perf_counter()
-    patch_area = state.patches.area_m2
+    patch_area = state.patch_area_m2
     reflectance = patch_mean(state.elements.reflectance, state.elements, state.patches)
     unshot = state.unshot
     residual = _residual(unshot, patch_area, state.injected_power_w)

@@ -21,6 +21,7 @@ from .scene import triangle_unit_normals
 
 CONSERVATIVE_REACH_TEXELS = 0.5 * np.sqrt(2.0)
 CANDIDATES_PER_CHUNK = 4_000_000
+TANGENT_RAYS = 8
 
 
 @dataclass
@@ -135,29 +136,57 @@ def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, point
                          normals: np.ndarray, reach_m: float, offset_m: float) -> tuple[np.ndarray, np.ndarray]:
     """Move points that lie inside closed geometry out through the nearest back face along the surface.
 
-    Eight rays per point in the tangent plane, ``reach_m`` long (about a texel), start ``offset_m`` above the
-    surface (``reach_m`` a scalar or one length per point); the nearest one that hits a back face (a face turned away from the ray: the point is behind it) moves
-    the point to just past that face. Returns the points and a (m,) mask of those moved.
+    Eight rays per point in the tangent plane, ``reach_m`` long (about a texel; a scalar or one length per point),
+    start ``offset_m`` above the surface; the nearest one that hits a back face (a face turned away from the ray:
+    the point is behind it) moves the point to just past that face. Returns the points and a (m,) mask of those
+    moved.
     """
+    origins, directions = tangent_rays(points, normals, offset_m)
+    distance, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
+    reach = np.repeat(np.broadcast_to(reach_m, len(points)), TANGENT_RAYS)
+    distance = np.where(behind & (distance <= reach), distance, np.inf).reshape(-1, TANGENT_RAYS)
+    nearest = distance.argmin(axis=1)
+    moved = np.isfinite(distance.min(axis=1))
+    step = distance[moved, nearest[moved]] + 2 * offset_m
+    out = points.copy()
+    out[moved] += directions.reshape(-1, TANGENT_RAYS, 3)[moved, nearest[moved]] * step[:, None]
+    return out, moved
+
+
+def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,
+                           normals: np.ndarray, offset_m: float) -> np.ndarray:
+    """(m,) True where a surface point is buried in closed geometry (a floor under a box standing on it): seen
+    from ``offset_m`` above it, the rays along the normal and along the eight tangent directions all meet a back
+    face first. An open surface above (a single-sided table top) leaves the tangent rays free, so it does not
+    count."""
+    origins, directions = tangent_rays(points, normals, offset_m)
+    origins = np.concatenate([origins, points + offset_m * normals])
+    directions = np.concatenate([directions, normals])
+    _, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
+    count = len(points)
+    return behind[:count * TANGENT_RAYS].reshape(count, TANGENT_RAYS).all(axis=1) & behind[count * TANGENT_RAYS:]
+
+
+def tangent_rays(points: np.ndarray, normals: np.ndarray, offset_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(m * 8, 3) origins ``offset_m`` above the points and unit directions at 45 degree steps in their tangent
+    planes."""
     frames = tangent_frames(normals)
-    angles = np.arange(8) * np.pi / 4
+    angles = np.arange(TANGENT_RAYS) * 2 * np.pi / TANGENT_RAYS
     local = np.stack([np.cos(angles), np.sin(angles)], axis=1)
     directions = np.einsum("dk,mkj->mdj", local, frames[:, :2]).reshape(-1, 3)
-    origins = np.repeat(points + offset_m * normals, 8, axis=0)
+    return np.repeat(points + offset_m * normals, TANGENT_RAYS, axis=0), directions
+
+
+def back_face_hits(caster: RayCaster, scene_triangles_m: np.ndarray, origins: np.ndarray,
+                   directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance to the first hit of each ray (inf for none) and whether that face is turned away from the ray."""
     hit, bary = caster.first_hit(origins, directions)
     found = hit >= 0
     hit_triangles = scene_triangles_m[np.maximum(hit, 0)]
     hit_points = np.einsum("mc,mck->mk", bary, hit_triangles)
     distance = np.where(found, np.linalg.norm(hit_points - origins, axis=1), np.inf)
     facing = (triangle_unit_normals(hit_triangles) * directions).sum(axis=1)
-    behind = found & (facing > 0) & (distance <= np.repeat(np.broadcast_to(reach_m, len(points)), 8))
-    distance = np.where(behind, distance, np.inf).reshape(-1, 8)
-    nearest = distance.argmin(axis=1)
-    moved = np.isfinite(distance.min(axis=1))
-    step = distance[moved, nearest[moved]] + 2 * offset_m
-    out = points.copy()
-    out[moved] += directions.reshape(-1, 8, 3)[moved, nearest[moved]] * step[:, None]
-    return out, moved
+    return distance, found & (facing > 0)
 
 
 def subtexel_barycentrics(texels: Texels, corner_uv: np.ndarray, samples_per_edge: int) -> np.ndarray:

@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 
 from ..core import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
+from ..core.bsdf import principled_reflectance
 from ..core.texture import ReflectanceTexture
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
@@ -198,9 +199,9 @@ class _Materials:
 def read_material(material, warnings: list[str]) -> Material:
     """Reflectance and emitted radiance from the node tree.
 
-    Principled BSDF: Base Color (an Image Texture feeding it becomes a texture the core averages over each
-    element's footprint), Emission Color x
-    Emission Strength; Diffuse BSDF: Color; Emission: Color x Strength (no reflection). Anything else: the
+    Principled BSDF: its hemispherical reflectance from Base Color, Roughness, Metallic, IOR, Specular IOR Level
+    and Transmission (core.bsdf; an Image Texture feeding Base Color becomes a texture the core averages over each
+    element's footprint), Emission Color x Emission Strength; Diffuse BSDF: Color; Emission: Color x Strength (no reflection). Anything else: the
     material's viewport colour, with a warning naming the material.
     """
     if material is None:
@@ -214,9 +215,12 @@ def read_material(material, warnings: list[str]) -> Material:
         return fallback
     if surface.type == "BSDF_PRINCIPLED":
         base, texture = _colour(surface.inputs["Base Color"], material.name, warnings)
+        offset, scale = _principled_reflectance(surface, material.name, warnings)
         emission = np.array(surface.inputs["Emission Color"].default_value[:3]) * \
             surface.inputs["Emission Strength"].default_value
-        return Material(material.name, base, tuple(emission), texture)
+        if texture is not None:
+            texture = ReflectanceTexture(offset + scale * texture.pixels, texture.uv_map)
+        return Material(material.name, tuple(offset + scale * np.array(base)), tuple(emission), texture)
     if surface.type == "BSDF_DIFFUSE":
         base, texture = _colour(surface.inputs["Color"], material.name, warnings)
         return Material(material.name, base, texture=texture)
@@ -226,6 +230,25 @@ def read_material(material, warnings: list[str]) -> Material:
     warnings.append(f"Material '{material.name}': the '{surface.name}' shader is not understood; using its "
                     "viewport colour as a diffuse reflectance.")
     return fallback
+
+
+def _principled_reflectance(surface, material_name: str, warnings: list[str]) -> tuple[float, float]:
+    """(offset, scale): the Principled BSDF's hemispherical reflectance is offset + scale x base colour
+    (core.bsdf: the specular layer's Fresnel reflection counts, metals reflect their colour)."""
+    value = {name: _scalar(surface.inputs[name], material_name, warnings) for name in
+             ("Roughness", "Metallic", "IOR", "Specular IOR Level", "Transmission Weight")}
+    if value["Transmission Weight"] > 0:
+        warnings.append(f"Material '{material_name}': transmitted light is not followed; only the reflection of its "
+                        "surface counts.")
+    return principled_reflectance(value["Roughness"], value["Metallic"], value["IOR"], value["Specular IOR Level"],
+                                  value["Transmission Weight"])
+
+
+def _scalar(socket, material_name: str, warnings: list[str]) -> float:
+    if socket.is_linked:
+        warnings.append(f"Material '{material_name}': '{socket.name}' is driven by a '{socket.links[0].from_node.name}'"
+                        " node that is not read; using the socket's own value.")
+    return float(socket.default_value)
 
 
 def _surface_node(tree):

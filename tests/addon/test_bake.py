@@ -92,7 +92,8 @@ def test_collection_instance_casts_shadow_and_receives_light(empty_scene):
 
 def test_image_texture_is_averaged_per_element(empty_scene, extension):
     """A 2 x 2 checker image (0.1 / 0.7, linear) on the base colour: elements inside a square reflect that square,
-    not the image mean (so a checker floor bleeds the colour it really has under each element)."""
+    not the image mean (so a checker floor bleeds the colour it really has under each element), through the
+    default Principled BSDF's specular layer (core.bsdf: S + (1 - S) base at roughness 0.5)."""
     floor = grid_plane("Floor", 2.0, 1)
     image = bpy.data.images.new("checker", 2, 2, float_buffer=True)
     image.pixels.foreach_set(np.array([[0.1] * 3 + [1], [0.7] * 3 + [1], [0.7] * 3 + [1], [0.1] * 3 + [1]],
@@ -108,6 +109,8 @@ def test_image_texture_is_averaged_per_element(empty_scene, extension):
     elements = elements_of(build_mesh(export.scene, 0.5, 0.25), export.scene)
     x, y = elements.centroid[:, 0], elements.centroid[:, 1]
     inside = (np.abs(x) > 0.2) & (np.abs(y) > 0.2)
-    expected = np.where((x < 0) == (y < 0), 0.1, 0.7)
+    from radiosity_baker.core.bsdf import principled_reflectance
+    offset, scale = principled_reflectance(0.5, 0.0, 1.5, 0.5, 0.0)
+    expected = offset + scale * np.where((x < 0) == (y < 0), 0.1, 0.7)
     assert elements.reflectance[inside, 0] == pytest.approx(expected[inside])
-    assert export.scene.materials[0].reflectance == pytest.approx((0.4, 0.4, 0.4))
+    assert export.scene.materials[0].reflectance == pytest.approx((offset + scale * 0.4,) * 3)
