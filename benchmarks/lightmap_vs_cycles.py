@@ -63,8 +63,9 @@ def main() -> None:
         bake = job.prepare(bpy.context, UserSettings(quality), job.Outputs("LIGHTMAP", lightmap=options,
                                                                           lightmap_folder=str(folder)))
         job.solve(bake, lambda fraction, message: None, lambda: False)
-        ours[quality] = (bake.lightmap.light.astype(np.float64), time.perf_counter() - started)
-        moved = bake.lightmap.moved  # sample points inside closed geometry: Cycles bakes the inside there
+        page, = bake.lightmaps  # a fixed resolution is one atlas page
+        ours[quality] = (page.light.astype(np.float64), time.perf_counter() - started)
+        moved = page.moved  # sample points inside closed geometry: Cycles bakes the inside there
         report = job.apply(bake)  # the UV map Cycles bakes on (identical for every preset: same layout)
     objects = [bpy.data.objects[entry["name"]] for entry in report["objects"] if entry["uv_map"]]
     objects = [o for o in objects if o.name not in LEFT_OUT[args.scene] and OFFSET_PROPERTY not in o]
@@ -95,21 +96,27 @@ def main() -> None:
         print(f"{name:24s} {seconds:8.2f} {error:10.4f}")
     for quality, (light, seconds) in ours.items():
         error = relative_rmse(light, reference, mask, variance)
-        matched = cycles_seconds_at(error, cycles)
+        matched, extrapolated = cycles_seconds_at(error, cycles)
         ratio = f"{matched / seconds:7.2f}" if matched else "    n/a"
-        matched_text = f"{matched:24.2f}" if matched else f"{'(beyond the ladder)':>24s}"
+        matched_text = f"{matched:23.2f}{'*' if extrapolated else ' '}" if matched else f"{'(beyond the ladder)':>24s}"
         print(f"{'radiosity ' + quality.lower():24s} {seconds:8.2f} {error:10.4f} {matched_text} {ratio}")
+    print("* extrapolated below the ladder along its two lowest-error points")
     sys.stdout.flush()
     os._exit(0)  # bpy 4.2 crashes at interpreter teardown
 
 
-def cycles_seconds_at(error: float, cycles: list[tuple[float, float]]) -> float | None:
-    """Cycles' time at the given error, log-log interpolated between the ladder's points (None outside it)."""
+def cycles_seconds_at(error: float, cycles: list[tuple[float, float]]) -> tuple[float | None, bool]:
+    """Cycles' time at the given error, log-log interpolated between the ladder's points; below the ladder's
+    lowest error, extrapolated along the line through its two lowest-error points (Monte Carlo error falls as
+    samples^-1/2, so that line is close to error ~ seconds^-1/2). Returns (seconds or None, extrapolated)."""
     errors = np.log([e for e, _ in cycles])
     seconds = np.log([s for _, s in cycles])
-    if not errors.min() <= np.log(error) <= errors.max():
-        return None
-    return float(np.exp(np.interp(np.log(error), errors, seconds)))
+    if errors.min() <= np.log(error) <= errors.max():
+        return float(np.exp(np.interp(np.log(error), errors, seconds))), False
+    if np.log(error) < errors.min() and len(cycles) >= 2:
+        slope = (seconds[1] - seconds[0]) / (errors[1] - errors[0])
+        return float(np.exp(seconds[0] + slope * (np.log(error) - errors[0]))), True
+    return None, False
 
 
 if __name__ == "__main__":

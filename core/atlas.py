@@ -1,5 +1,5 @@
 """Lightmap atlases: each mesh is cut into charts and packed into its own block by xatlas; blocks are then
-packed side by side into one atlas image.
+packed side by side into atlas pages (images) of at most a maximum size, as many as the texel density needs.
 
 A block per mesh (rather than one xatlas pack over all meshes) lets objects that share mesh data (linked
 duplicates) keep one UV layout yet own separate lightmap space: each user of the mesh gets its own copy of the
@@ -50,37 +50,48 @@ def unwrap(positions_m: np.ndarray, triangle_vertices: np.ndarray, texels_per_me
     return ChartBlock(corner_texels, width, height)
 
 
-def pack_blocks(sizes: np.ndarray, max_size: int) -> tuple[np.ndarray, int, int]:
-    """Shelf packing of (n, 2) block sizes (width, height, texels): (n, 2) lower-left offsets, atlas width and
-    height. Blocks go tallest first, in rows as wide as the widest block or the square root of the total area;
-    raises SceneError if the atlas would exceed ``max_size`` on a side."""
+def pack_blocks(sizes: np.ndarray, max_size: int) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """Shelf packing of (n, 2) block sizes (width, height, texels) into as many ``max_size`` pages as needed:
+    (n, 2) lower-left offsets, (n,) page of each block, and the width and height every page shares. Blocks go
+    tallest first, in rows as wide as the widest block or the square root of the total area (at most
+    ``max_size``); a block wider or taller than ``max_size`` raises SceneError."""
     sizes = np.asarray(sizes, dtype=np.int64).reshape(-1, 2)
-    offsets = np.zeros_like(sizes)
+    offsets, page = np.zeros_like(sizes), np.zeros(len(sizes), dtype=np.int64)
     if len(sizes) == 0:
-        return offsets, 0, 0
-    row_width = max(int(sizes[:, 0].max()), int(np.ceil(np.sqrt((sizes[:, 0] * sizes[:, 1]).sum()))))
-    x = y = row_height = width = 0
+        return offsets, page, 0, 0
+    if sizes.max() > max_size:
+        width, height = sizes[np.argmax(sizes.max(axis=1))]
+        raise SceneError(f"One mesh's lightmap charts need {width} x {height} texels, over the maximum atlas size "
+                         f"of {max_size}; lower the texel density or raise the maximum size.")
+    row_width = min(max_size, max(int(sizes[:, 0].max()), int(np.ceil(np.sqrt((sizes[:, 0] * sizes[:, 1]).sum())))))
+    x = y = row_height = width = height = current = 0
     for index in np.lexsort((np.arange(len(sizes)), -sizes[:, 1])):  # one step per object, not per texel
         w, h = sizes[index]
         if x + w > row_width:
             x, y, row_height = 0, y + row_height, 0
-        offsets[index] = (x, y)
-        x, row_height, width = x + w, max(row_height, h), max(width, x + w)
-    height = y + row_height
-    if max(width, height) > max_size:
-        raise SceneError(f"The lightmap atlas would be {width} x {height} texels, over the maximum of {max_size}; "
-                         "lower the texel density or raise the maximum size.")
-    return offsets, int(width), int(height)
+        if y + h > max_size:
+            x = y = row_height = 0
+            current += 1
+        offsets[index], page[index] = (x, y), current
+        x, row_height = x + w, max(row_height, h)
+        width, height = max(width, x), max(height, y + row_height)
+    return offsets, page, int(width), int(height)
 
 
 @dataclass
 class AtlasLayout:
-    """Where every object's triangles sit in the atlas: per object (t, 3, 2) corner UVs in [0, 1]."""
+    """Where every object's triangles sit: per object its page (one image each) and (t, 3, 2) corner UVs in [0, 1]
+    of that page; every page is ``width`` x ``height`` texels, so a UV offset moves a block between pages alike."""
 
     corner_uv: list[np.ndarray]
+    page: np.ndarray
     width: int
     height: int
     texels_per_metre: float
+
+    @property
+    def page_count(self) -> int:
+        return int(self.page.max(initial=-1)) + 1
 
 
 def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: list[int], padding_texels: int,
@@ -88,8 +99,8 @@ def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: li
     """Unwrap each mesh once and give each object a copy of its mesh's block.
 
     ``meshes``: (positions_m, triangle_vertices) per distinct mesh; ``mesh_of_object``: the mesh of each object.
-    Either the density is given, or a square ``resolution`` that the density is chosen to fill (largest density,
-    in steps of 10%, whose packing fits)."""
+    Either the density is given (pages of up to ``max_size`` texels a side, as many as needed), or a square
+    ``resolution`` that the density is chosen to fill in one page (largest density, in steps of 10%, that fits)."""
     if texels_per_metre is not None:
         return _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre)
     if not resolution or resolution <= 0:
@@ -101,10 +112,12 @@ def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: li
         try:
             layout = _layout(meshes, mesh_of_object, padding_texels, resolution, density)
         except SceneError:
-            density *= 0.9
-            continue
-        to_canvas = np.array([layout.width, layout.height]) / resolution
-        return AtlasLayout([uv * to_canvas for uv in layout.corner_uv], resolution, resolution, density)
+            layout = None
+        if layout is not None and layout.page_count == 1:
+            to_canvas = np.array([layout.width, layout.height]) / resolution
+            return AtlasLayout([uv * to_canvas for uv in layout.corner_uv], layout.page, resolution, resolution,
+                               density)
+        density *= 0.9
     raise SceneError(f"The objects do not fit a {resolution} x {resolution} lightmap with {padding_texels} texels "
                      "of padding; raise the resolution.")
 
@@ -112,6 +125,6 @@ def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: li
 def _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre) -> AtlasLayout:
     blocks = [unwrap(positions, triangles, texels_per_metre, padding_texels) for positions, triangles in meshes]
     sizes = np.array([(blocks[m].width, blocks[m].height) for m in mesh_of_object])
-    offsets, width, height = pack_blocks(sizes, max_size)
+    offsets, page, width, height = pack_blocks(sizes, max_size)
     corner_uv = [(blocks[m].corner_texels + offset) / [width, height] for m, offset in zip(mesh_of_object, offsets)]
-    return AtlasLayout(corner_uv, width, height, float(texels_per_metre))
+    return AtlasLayout(corner_uv, page, width, height, float(texels_per_metre))

@@ -23,13 +23,14 @@ INDIRECT_METHODS = ("gather", "interpolate")
 class LightmapSettings:
     """indirect: "gather" (rays from each texel look up the solution) or "interpolate" (element corners: fast,
     softer). gather_samples_per_edge: s, so s^2 gather rays per texel. subtexel_samples_per_edge: k, so direct
-    light is averaged over k x k points of each texel's footprint (its shadow rays per point divided by k per
-    edge, so the ray count stays the same). dilation_texels: how far values are grown into the empty texels
+    light is averaged over k x k points of each texel's footprint, each with the bake's light samples per edge
+    divided by k (rounded up): about the bake's shadow rays per texel, spread over its footprint, which on the
+    sample scenes measured closer to Cycles than as many rays from the texel centre (docs/benchmarks.md). dilation_texels: how far values are grown into the empty texels
     around charts. seed: of the stratified gather directions."""
 
     indirect: str = "gather"
     gather_samples_per_edge: int = 8
-    subtexel_samples_per_edge: int = 2
+    subtexel_samples_per_edge: int = 3
     dilation_texels: int = 4
     seed: int = 0
 
@@ -105,9 +106,9 @@ def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, p
 
 
 def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge) -> np.ndarray:
-    """Direct light averaged over the sub-texel points, with 1/k the shadow rays per edge at each."""
+    """Direct light averaged over the sub-texel points, with 1/k the shadow rays per edge at each (rounded up)."""
     q = sub_points.shape[1]
-    light_samples = max(1, int(round(solution.direct.samples_per_edge / samples_per_edge)))
+    light_samples = -(-solution.direct.samples_per_edge // samples_per_edge)
     light = solution.direct_light(sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0), np.repeat(tri, q),
                                   np.repeat(barycentric, q, axis=0), light_samples)
     return light.reshape(-1, q, 3).mean(axis=1)

@@ -50,6 +50,9 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     density.add_argument("--texels-per-meter", type=float, help="lightmap density (default: from --quality)")
     density.add_argument("--resolution", type=int, help="square lightmap size in texels; the density fills it")
     parser.add_argument("--padding", type=int, default=4, help="lightmap texels between charts (default: 4)")
+    parser.add_argument("--max-size", type=int, default=4096,
+                        help="texels a side of a lightmap image; more images when the density needs them "
+                             "(default: 4096)")
     parser.add_argument("--gather-samples", type=int, default=8,
                         help="final-gather rays per texel: this squared (custom quality)")
     parser.add_argument("--uv-map", default="Lightmap", help="name of the lightmap UV map to make")
@@ -82,7 +85,7 @@ def _bake(args) -> dict:
     from . import job as bake_job
     from .job import Outputs
     from .lightmaps import LightmapOptions
-    for name in ("texels_per_meter", "resolution", "padding", "gather_samples"):
+    for name in ("texels_per_meter", "resolution", "padding", "max_size", "gather_samples"):
         value = getattr(args, name)
         if value is not None and value <= 0:
             raise CommandError(EXIT_BAD_ARGUMENT, f"--{name.replace('_', '-')} must be positive, got {value}")
@@ -102,7 +105,7 @@ def _bake(args) -> dict:
                         args.residual, args.light_samples, args.form_factors, args.seed, args.gather_samples,
                         args.texels_per_meter or 0.0)
     lightmap = LightmapOptions(args.uv_map, args.lightmap_image, args.texels_per_meter, args.resolution,
-                               args.padding, half=not args.float, png_exposure=args.png_exposure)
+                               args.padding, args.max_size, half=not args.float, png_exposure=args.png_exposure)
     outputs = Outputs(args.target.upper(), args.attribute, args.radiosity_mesh, lightmap, folder)
     started = time.perf_counter()
     try:

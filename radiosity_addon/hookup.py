@@ -2,7 +2,8 @@
 the baked objects emit base colour x baked light, and undo it exactly.
 
 A node group "Radiosity Baked Light" reads the light (the lightmap image on its UV map, shifted by an object's
-``radiosity_lightmap_offset`` for linked duplicates, or the colour attribute), multiplies the base colour and adds
+``radiosity_lightmap_offset`` for linked duplicates; with several atlas pages, the image of the object's
+``radiosity_lightmap_page``; or the colour attribute), multiplies the base colour and adds
 the material's own emission. Hooking up adds two nodes (the group, an Emission shader) and re-links the material
 output's Surface; the original link is remembered in ``material["radiosity_hookup"]``. Unhooking removes exactly
 those nodes and restores the link, so the material is as it was.
@@ -11,15 +12,17 @@ from __future__ import annotations
 
 import bpy
 
+from .lightmaps import OFFSET_PROPERTY, PAGE_PROPERTY
+
 GROUP_NAME = "Radiosity Baked Light"
 NODE_NAME = "Radiosity Baked Light"
 EMISSION_NAME = "Radiosity Baked Light Emission"
 REMEMBERED = "radiosity_hookup"
-OFFSET_ATTRIBUTE = "radiosity_lightmap_offset"
 
 
-def baked_light_group(uv_map: str | None = None, image=None, attribute: str | None = None):
-    """The node group for a lightmap (``uv_map`` and ``image``) or a colour ``attribute``; rebuilt each time."""
+def baked_light_group(uv_map: str | None = None, images=(), attribute: str | None = None):
+    """The node group for a lightmap (``uv_map`` and its page ``images``) or a colour ``attribute``; rebuilt each
+    time."""
     old = bpy.data.node_groups.get(GROUP_NAME)
     if old is not None:
         bpy.data.node_groups.remove(old)
@@ -28,7 +31,7 @@ def baked_light_group(uv_map: str | None = None, image=None, attribute: str | No
         group.interface.new_socket(name, in_out=kind, socket_type="NodeSocketColor")
     nodes, links = group.nodes, group.links
     inputs, outputs = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
-    light = _lightmap_nodes(nodes, links, uv_map, image) if image is not None else _attribute_node(nodes, attribute)
+    light = _lightmap_nodes(nodes, links, uv_map, images) if images else _attribute_node(nodes, attribute)
     multiply = _mix(nodes, "MULTIPLY")
     links.new(light, multiply.inputs[6])
     links.new(inputs.outputs["Base Color"], multiply.inputs[7])
@@ -39,19 +42,45 @@ def baked_light_group(uv_map: str | None = None, image=None, attribute: str | No
     return group
 
 
-def _lightmap_nodes(nodes, links, uv_map: str, image):
+def _lightmap_nodes(nodes, links, uv_map: str, images):
+    """The lightmap colour: one image, or the sum over pages of image k x (object's page == k)."""
     uv = nodes.new("ShaderNodeUVMap")
     uv.uv_map = uv_map
     offset = nodes.new("ShaderNodeAttribute")
-    offset.attribute_type, offset.attribute_name = "OBJECT", OFFSET_ATTRIBUTE
+    offset.attribute_type, offset.attribute_name = "OBJECT", OFFSET_PROPERTY
     shifted = nodes.new("ShaderNodeVectorMath")
     shifted.operation = "ADD"
     links.new(uv.outputs["UV"], shifted.inputs[0])
     links.new(offset.outputs["Vector"], shifted.inputs[1])
-    texture = nodes.new("ShaderNodeTexImage")
-    texture.image, texture.extension, texture.interpolation = image, "EXTEND", "Linear"
-    links.new(shifted.outputs["Vector"], texture.inputs["Vector"])
-    return texture.outputs["Color"]
+    colours = []
+    for image in images:
+        texture = nodes.new("ShaderNodeTexImage")
+        texture.image, texture.extension, texture.interpolation = image, "EXTEND", "Linear"
+        links.new(shifted.outputs["Vector"], texture.inputs["Vector"])
+        colours.append(texture.outputs["Color"])
+    if len(colours) == 1:
+        return colours[0]
+    page = nodes.new("ShaderNodeAttribute")
+    page.attribute_type, page.attribute_name = "OBJECT", PAGE_PROPERTY
+    total = None
+    for number, colour in enumerate(colours):
+        chosen = nodes.new("ShaderNodeMath")
+        chosen.operation = "COMPARE"
+        links.new(page.outputs["Fac"], chosen.inputs[0])
+        chosen.inputs[1].default_value, chosen.inputs[2].default_value = float(number), 0.5
+        scaled = nodes.new("ShaderNodeVectorMath")
+        scaled.operation = "SCALE"
+        links.new(colour, scaled.inputs[0])
+        links.new(chosen.outputs[0], scaled.inputs["Scale"])
+        if total is not None:
+            added = nodes.new("ShaderNodeVectorMath")
+            added.operation = "ADD"
+            links.new(total, added.inputs[0])
+            links.new(scaled.outputs["Vector"], added.inputs[1])
+            total = added.outputs["Vector"]
+        else:
+            total = scaled.outputs["Vector"]
+    return total
 
 
 def _attribute_node(nodes, attribute: str):

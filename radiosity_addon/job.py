@@ -49,7 +49,7 @@ class Job:
     lightmap_plan: LightmapPlan | None = None
     started: float = field(default_factory=time.perf_counter)
     solution: object = None
-    lightmap: object = None
+    lightmaps: list = field(default_factory=list)
 
 
 def prepare(context, user: UserSettings, outputs: Outputs) -> Job:
@@ -74,15 +74,17 @@ def solve(job: Job, progress, cancelled) -> None:
     job.solution = bake(job.export.scene, job.settings, progress, cancelled)
     plan = job.lightmap_plan
     if plan is not None:
-        job.lightmap = bake_lightmap(job.solution, plan.scene_triangle, plan.corner_uv, plan.layout.width,
-                                     plan.layout.height, job.lightmap_settings, progress, cancelled)
+        job.lightmaps = [bake_lightmap(job.solution, scene_triangle, corner_uv, plan.layout.width,
+                                       plan.layout.height, job.lightmap_settings, progress, cancelled)
+                         for scene_triangle, corner_uv in plan.page_triangles]
 
 
 def apply(job: Job) -> dict:
     """Write the outputs; returns the report (REPORT.json's contract, docs/design in the README)."""
     objects, warnings, entries = [], list(job.export.warnings), []
     if job.lightmap_plan is not None:  # first: its files are what can still fail, before the .blend changes
-        entries = write_lightmap(job.lightmap_plan, job.lightmap.light, _metadata(job), job.outputs.lightmap_folder)
+        entries = write_lightmap(job.lightmap_plan, [page.light for page in job.lightmaps], _metadata(job),
+                                 job.outputs.lightmap_folder)
         warnings += job.lightmap_plan.warnings
     if job.outputs.vertex_colors:
         objects, more = write_vertex_colors(job.export, job.solution, job.outputs.attribute)
@@ -106,10 +108,15 @@ def apply(job: Job) -> dict:
         "units": "irradiance / pi (Cycles Diffuse bake, Direct + Indirect, no Color), scene-linear",
         "warnings": warnings,
     }
-    if job.lightmap is not None:
-        report["lightmap"] = {"texels": job.lightmap.texel_count, "moved_texels": int(job.lightmap.moved.sum()),
+    if job.lightmaps:
+        timings = {}
+        for page in job.lightmaps:
+            for phase, seconds in page.seconds.items():
+                timings[phase] = timings.get(phase, 0.0) + seconds
+        report["lightmap"] = {"pages": len(job.lightmaps), "texels": sum(page.texel_count for page in job.lightmaps),
+                              "moved_texels": sum(int(page.moved.sum()) for page in job.lightmaps),
                               "texels_per_metre": job.lightmap_plan.layout.texels_per_metre,
-                              "timings": job.lightmap.seconds, "settings": vars(job.lightmap_settings).copy()}
+                              "timings": timings, "settings": vars(job.lightmap_settings).copy()}
     return report
 
 

@@ -168,10 +168,10 @@ class RADIOSITY_OT_preview(bpy.types.Operator):
 def _baked_light_group(settings):
     """The hookup group for what was baked: the lightmap image on its UV map, else the colour attribute."""
     from . import hookup
-    from .lightmaps import OWNED_IMAGE
-    image = bpy.data.images.get(settings.lightmap_image)
-    if image is not None and image.get(OWNED_IMAGE):
-        return hookup.baked_light_group(uv_map=settings.lightmap_uv_map, image=image)
+    from .lightmaps import page_images
+    images = page_images(settings.lightmap_image)
+    if images:
+        return hookup.baked_light_group(uv_map=settings.lightmap_uv_map, images=images)
     if any(settings.attribute_name in m.color_attributes for m in bpy.data.meshes):
         return hookup.baked_light_group(attribute=settings.attribute_name)
     return None

@@ -27,7 +27,7 @@ class RENDER_PT_radiosity(bpy.types.Panel):
             layout.prop(settings, "attribute_name")
         if settings.target != "VERTEX_COLORS":
             box = layout.column(heading="Lightmap")
-            for name in ("texels_per_metre", "lightmap_resolution", "lightmap_padding", "lightmap_uv_map",
+            for name in ("texels_per_metre", "lightmap_resolution", "lightmap_max_size", "lightmap_padding", "lightmap_uv_map",
                          "lightmap_image", "lightmap_folder", "lightmap_half"):
                 box.prop(settings, name)
             gather = box.column()

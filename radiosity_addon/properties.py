@@ -44,6 +44,9 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
                                                 "texels across the scene)")
     lightmap_resolution: IntProperty(name="Resolution", default=0, min=0, max=8192,
                                      description="Square lightmap size in texels; 0 sizes it from the density")
+    lightmap_max_size: IntProperty(name="Max Size", default=4096, min=64, max=16384,
+                                   description="Texels a side of a lightmap image; a density that needs more gets "
+                                               "several images")
     lightmap_padding: IntProperty(name="Padding", default=4, min=1, max=32,
                                   description="Texels between charts, filled by dilation so filtering and "
                                               "mipmaps do not bleed")
@@ -69,7 +72,8 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
         from .job import Outputs
         from .lightmaps import LightmapOptions, lightmap_folder
         options = LightmapOptions(self.lightmap_uv_map, self.lightmap_image, self.texels_per_metre or None,
-                                  self.lightmap_resolution or None, self.lightmap_padding, half=self.lightmap_half)
+                                  self.lightmap_resolution or None, self.lightmap_padding, self.lightmap_max_size,
+                                  half=self.lightmap_half)
         return Outputs(self.target, self.attribute_name, self.create_radiosity_mesh, options,
                        lightmap_folder(self.lightmap_folder))
 

@@ -3,7 +3,7 @@ plane give their exact light, and a block standing on a floor leaks no light und
 import numpy as np
 import pytest
 
-from core import BakeSettings, Material, Scene, SunLight, World, bake
+from core import BakeSettings, Material, Scene, SceneError, SunLight, World, bake
 from core.atlas import layout_atlas, pack_blocks
 from core.lightmap import LightmapSettings, bake_lightmap, dilate
 from core.texels import rasterize
@@ -36,13 +36,23 @@ def test_rasterised_texels_cover_each_triangle_area():
     assert len(np.unique(texels.pixel)) == len(texels.pixel)
 
 
-def test_shelf_packing_never_overlaps():
-    sizes = np.array([[30, 10], [10, 30], [25, 25], [5, 5], [40, 8]])
-    offsets, width, height = pack_blocks(sizes, 4096)
-    canvas = np.zeros((height, width), dtype=int)
-    for (x, y), (w, h) in zip(offsets, sizes):
-        canvas[y:y + h, x:x + w] += 1
+@pytest.mark.parametrize("max_size, least_pages", [(4096, 1), (40, 2)])
+def test_shelf_packing_never_overlaps_and_opens_pages_when_full(max_size, least_pages):
+    """Blocks never overlap on a page and every page stays within the maximum size; the 2,414 texels of blocks
+    fit one 4096 page and need at least 2 pages of 40 x 40 (1,600 texels each)."""
+    sizes = np.array([[30, 10], [10, 30], [25, 25], [5, 5], [40, 8], [20, 30], [30, 20]])
+    offsets, page, width, height = pack_blocks(sizes, max_size)
+    pages = page.max() + 1
+    assert pages >= least_pages and (max_size > 1000) == (pages == 1) and max(width, height) <= max_size
+    canvas = np.zeros((pages, height, width), dtype=int)
+    for (x, y), (w, h), p in zip(offsets, sizes, page):
+        canvas[p, y:y + h, x:x + w] += 1
     assert canvas.max() == 1
+
+
+def test_a_block_over_the_maximum_size_is_refused():
+    with pytest.raises(SceneError, match="over the maximum atlas size of 32"):
+        pack_blocks(np.array([[10, 10], [40, 8]]), 32)
 
 
 @pytest.mark.parametrize("indirect", ["gather", "interpolate"])

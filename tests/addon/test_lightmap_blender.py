@@ -70,13 +70,14 @@ def test_cornell_lightmap_matches_cycles(tmp_path, extension):
         "LIGHTMAP", lightmap=LightmapOptions(resolution=SIZE, padding=2), lightmap_folder=str(tmp_path)))
     job.solve(bake, lambda fraction, message: None, lambda: False)
     job.apply(bake)
-    ours = bake.lightmap.light.astype(np.float64)
+    page, = bake.lightmaps
+    ours = page.light.astype(np.float64)
     names = ["floor", "back wall", "left wall", "right wall", "short block", "tall block"]
     objects = [bpy.data.objects[name] for name in names]
     first, _ = cycles_lightmap_bake(objects, "Lightmap", SIZE, SIZE, samples=1024, seed=1)
     second, _ = cycles_lightmap_bake(objects, "Lightmap", SIZE, SIZE, samples=1024, seed=2)
     reference = 0.5 * (first + second)
-    mask = uv_coverage(objects, "Lightmap", SIZE, SIZE) & ~bake.lightmap.moved
+    mask = uv_coverage(objects, "Lightmap", SIZE, SIZE) & ~page.moved
     noise_variance = np.mean((first[mask] - second[mask]) ** 2) / 4.0
     error = np.sqrt(max(np.mean((ours[mask] - reference[mask]) ** 2) - noise_variance, 0.0)) / reference[mask].mean()
     assert error <= MEASURED_DRAFT_ERROR + 0.03
@@ -172,3 +173,37 @@ def test_linked_duplicates_get_their_own_lightmap_space(empty_scene, extension, 
     assert own[0] and own[1] and not own[0] & own[1]
     lit, unlit = light[sorted(own[0])].mean(), light[sorted(own[1])].mean()
     assert lit > 5 * unlit  # the light hangs over the first tile
+
+
+def test_a_density_too_high_for_one_image_bakes_several(empty_scene, extension, tmp_path):
+    """Three 1 m tiles at 40 texels/m make 48 x 48 blocks (charts plus padding); with a 64-texel maximum each gets
+    an image of its own. Every page holds its tile's light (sun of strength 3 overhead: 3 / pi = 0.9549 on every
+    texel, within 1%), each object names its page, and the preview reads every page."""
+    from radiosity_baker.core.image_file import read_image
+    from radiosity_baker.core.texels import rasterize
+    tiles = [grid_plane(f"Tile {n}", 1.0, 1, location=(3.0 * n, 0.0, 0.0)) for n in range(3)]
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0)
+    settings = empty_scene.radiosity
+    settings.quality, settings.target, settings.texels_per_metre = "DRAFT", "LIGHTMAP", 40.0
+    settings.lightmap_max_size, settings.lightmap_folder = 64, str(tmp_path)
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    pages = sorted(tile["radiosity_lightmap_page"] for tile in tiles)
+    assert pages == [0, 1, 2]
+    for tile in tiles:
+        page = tile["radiosity_lightmap_page"]
+        name = "Radiosity_Lightmap" + (f"_{page + 1}" if page else "")
+        light = read_image(str(tmp_path / f"{name}.exr"))
+        height, width = light.shape[:2]
+        assert max(width, height) <= 64
+        mesh = tile.data
+        mesh.calc_loop_triangles()
+        loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+        mesh.uv_layers["Lightmap"].data.foreach_get("uv", uv)
+        texels = rasterize(uv.reshape(-1, 2)[loops].reshape(-1, 3, 2).astype(np.float64), width, height)
+        assert light.reshape(-1, 3)[texels.pixel] == pytest.approx(3.0 / np.pi, rel=0.01)
+    assert bpy.ops.radiosity.preview() == {"FINISHED"}
+    group = bpy.data.node_groups["Radiosity Baked Light"]
+    shown = {node.image.name for node in group.nodes if node.type == "TEX_IMAGE"}
+    assert shown == {"Radiosity Lightmap", "Radiosity Lightmap 2", "Radiosity Lightmap 3"}
