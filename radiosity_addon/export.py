@@ -25,8 +25,8 @@ class ExportedObject:
     """Where one object instance's triangles sit in the exported scene.
 
     first_triangle / triangle_count: its range in the scene's input triangles; corner_loops / corner_vertices:
-    (t, 3) loop and vertex of each triangle corner in the evaluated mesh; writable: a real (not instanced) mesh object that is baked;
-    same_topology: its evaluated mesh has the original mesh's loops, so values map loop to loop.
+    (t, 3) loop and vertex of each triangle corner in the evaluated mesh; writable: a real (not instanced) mesh
+    object that is baked; same_topology: its evaluated mesh has the original mesh's loops, so values map loop to loop.
     """
 
     name: str
@@ -201,8 +201,8 @@ def read_material(material, warnings: list[str]) -> Material:
 
     Principled BSDF: its hemispherical reflectance from Base Color, Roughness, Metallic, IOR, Specular IOR Level
     and Transmission (core.bsdf; an Image Texture feeding Base Color becomes a texture the core averages over each
-    element's footprint), Emission Color x Emission Strength; Diffuse BSDF: Color; Emission: Color x Strength (no reflection). Anything else: the
-    material's viewport colour, with a warning naming the material.
+    element's footprint), Emission Color x Emission Strength; Diffuse BSDF: Color; Emission: Color x Strength (no
+    reflection). Anything else: the material's viewport colour, with a warning naming the material.
     """
     if material is None:
         return DEFAULT_MATERIAL

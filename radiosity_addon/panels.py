@@ -27,9 +27,12 @@ class RENDER_PT_radiosity(bpy.types.Panel):
             layout.prop(settings, "attribute_name")
         if settings.target != "VERTEX_COLORS":
             box = layout.column(heading="Lightmap")
-            for name in ("texels_per_metre", "lightmap_resolution", "lightmap_max_size", "lightmap_padding", "lightmap_uv_map",
-                         "lightmap_image", "lightmap_folder", "lightmap_half"):
+            for name in ("texels_per_metre", "lightmap_resolution", "lightmap_max_size", "lightmap_padding",
+                         "lightmap_uv_map", "lightmap_image", "lightmap_folder", "lightmap_half", "lightmap_png"):
                 box.prop(settings, name)
+            exposure = box.column()
+            exposure.enabled = settings.lightmap_png
+            exposure.prop(settings, "lightmap_png_exposure")
             gather = box.column()
             gather.enabled = settings.quality == "CUSTOM"
             gather.prop(settings, "gather_samples")

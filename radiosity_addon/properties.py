@@ -62,6 +62,11 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
                                                 ".blend gets the image packed)")
     lightmap_half: BoolProperty(name="Half Float", default=True,
                                 description="16-bit float EXR (smaller); off for 32-bit float")
+    lightmap_png: BoolProperty(name="Also PNG", default=False,
+                               description="Also write an 8-bit sRGB PNG beside the EXR, for engines that want low "
+                                           "dynamic range (not for a packed image)")
+    lightmap_png_exposure: FloatProperty(name="PNG Exposure", default=0.0, soft_min=-10.0, soft_max=10.0,
+                                         description="Stops: the PNG holds sRGB(clamp(light x 2^stops, 0, 1))")
 
     def user_settings(self) -> UserSettings:
         return UserSettings(self.quality, self.element_size, self.patch_size, self.adaptive_passes, self.residual,
@@ -73,7 +78,8 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
         from .lightmaps import LightmapOptions, lightmap_folder
         options = LightmapOptions(self.lightmap_uv_map, self.lightmap_image, self.texels_per_metre or None,
                                   self.lightmap_resolution or None, self.lightmap_padding, self.lightmap_max_size,
-                                  half=self.lightmap_half)
+                                  half=self.lightmap_half,
+                                  png_exposure=self.lightmap_png_exposure if self.lightmap_png else None)
         return Outputs(self.target, self.attribute_name, self.create_radiosity_mesh, options,
                        lightmap_folder(self.lightmap_folder))
 

@@ -115,19 +115,23 @@ def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples:
     return pixels.reshape(height, width, 4)[..., :3].astype(np.float64), seconds
 
 
+def triangle_uvs(mesh, uv_map: str) -> np.ndarray:
+    """(t, 3, 2) UVs of the mesh's triangle corners in the given UV map."""
+    mesh.calc_loop_triangles()
+    loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2)[loops].reshape(-1, 3, 2).astype(np.float64)
+
+
 def uv_coverage(objects, uv_map: str, width: int, height: int) -> np.ndarray:
     """(height, width) texels whose centre lies strictly inside a triangle of the objects' UV map (what Cycles
     bakes; xatlas puts chart borders through texel centres, which Cycles' rasteriser may leave to neither side)."""
     from radiosity_baker.core.texels import rasterize
     covered = np.zeros(width * height, dtype=bool)
     for obj in objects:
-        mesh = obj.data
-        mesh.calc_loop_triangles()
-        loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("loops", loops)
-        uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
-        mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
-        texels = rasterize(uv.reshape(-1, 2)[loops].reshape(-1, 3, 2).astype(np.float64), width, height)
+        texels = rasterize(triangle_uvs(obj.data, uv_map), width, height)
         strictly = texels.centre_inside & (texels.barycentric.min(axis=1) > 1e-4)
         covered[texels.pixel[strictly]] = True
     return covered.reshape(height, width)
