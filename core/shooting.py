@@ -49,18 +49,21 @@ class RayCastRows:
         self._samples = triangle_samples(patches.corners, samples_per_edge)
 
     def block(self, patches: np.ndarray, receivers: Elements) -> np.ndarray:
-        """(n, b) form factors from every receiver to each of the b given patches."""
-        n, b = len(receivers.node), len(patches)
-        receiver, patch = np.repeat(np.arange(n), b), np.tile(patches, n)
+        """(n, b) form factors from every receiver to each of the b given patches; only the pairs where the
+        receiver lies in front of the patch are ever gathered into flat arrays."""
+        patch_normal = self.patches.normal[patches]
+        height = receivers.centroid @ patch_normal.T - np.einsum("bk,bk->b", self.patches.centroid[patches],
+                                                                   patch_normal)
+        receiver, column = np.nonzero((height > 0) & (receivers.patch[:, None] != patches[None, :]))
+        patch = patches[column]
         centroid, normal = receivers.centroid[receiver], receivers.normal[receiver]
-        in_front = np.einsum("mk,mk->m", centroid - self.patches.centroid[patch], self.patches.normal[patch]) > 0
-        pair = np.flatnonzero(in_front & (receivers.patch[receiver] != patch))
-        factors = np.zeros(n * b)
-        factors[pair] = point_to_polygon(centroid[pair], normal[pair], self.patches.corners[patch[pair]])
-        seen = pair[factors[pair] > 0]
-        factors[seen] *= visible_fraction(self.caster, centroid[seen], normal[seen], self._samples[patch[seen]],
-                                          self.patches.normal[patch[seen]], self.offset_m, self.offset_m)
-        return factors.reshape(n, b)
+        values = point_to_polygon(centroid, normal, self.patches.corners[patch])
+        seen = np.flatnonzero(values > 0)
+        values[seen] *= visible_fraction(self.caster, centroid[seen], normal[seen], self._samples[patch[seen]],
+                                         self.patches.normal[patch[seen]], self.offset_m, self.offset_m)
+        factors = np.zeros((len(receivers.node), len(patches)))
+        factors[receiver, column] = values
+        return factors
 
 
 class HemicubeRows:
