@@ -14,7 +14,8 @@ import numpy as np
 from .gather import final_gather
 from .progress import BakeCancelled, Progress, Timer, never_cancelled, no_progress
 from .scene import SceneError, triangle_areas
-from .texels import Texels, inset, push_out_of_geometry, rasterize, sample_points, subtexel_barycentrics
+from .texels import (Texels, face_to_face_contact, inset, push_out_of_geometry, rasterize, sample_points,
+                     subtexel_barycentrics)
 
 INDIRECT_METHODS = ("gather", "interpolate")
 
@@ -66,6 +67,7 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     scene = solution.scene
     direct, offset = solution.direct, solution.direct.offset_m
     points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels, 4 * offset)
+    contact = face_to_face_contact(scene.triangles, tri, points, 4 * offset)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
     points, moved = push_out_of_geometry(direct.caster, scene.triangles, points, normals, reach, offset)
     sub_points = _subtexel_points(scene.triangles[tri], texels, corner_uv, settings.subtexel_samples_per_edge,
@@ -83,6 +85,7 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
         light += solution.indirect_light(tri, texels.barycentric)
     timer.lap("indirect")
     light = solution.black_stays_black(light, tri)
+    light[contact] = 0.0  # resting on another face: no light gets there
     image = np.zeros((height * width, 3))
     image[texels.pixel] = np.nan_to_num(light)
     covered = np.zeros(height * width, dtype=bool)

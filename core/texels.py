@@ -22,6 +22,7 @@ from .scene import triangle_unit_normals
 CONSERVATIVE_REACH_TEXELS = 0.5 * np.sqrt(2.0)
 CANDIDATES_PER_CHUNK = 4_000_000
 TANGENT_RAYS = 8
+PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 
 
 @dataclass
@@ -165,6 +166,45 @@ def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, poi
     _, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
     count = len(points)
     return behind[:count * TANGENT_RAYS].reshape(count, TANGENT_RAYS).all(axis=1) & behind[count * TANGENT_RAYS:]
+
+
+def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, points: np.ndarray,
+                         tolerance_m: float) -> np.ndarray:
+    """(m,) True where a surface point lies on a face resting against an opposite-facing face in the same plane
+    (the bottom of a box standing on a floor). No light reaches it, and Cycles bakes it black; but a sample point
+    lifted off the surface passes through the other face, and one Embree ray cannot tell two coplanar faces
+    apart. Planes are matched by quantised normal and offset (``tolerance_m``), one step per plane, not per
+    texel; each point is then tested against the triangles of the opposite plane."""
+    normals = triangle_unit_normals(scene_triangles_m)
+    offsets = np.einsum("tk,tk->t", normals, scene_triangles_m[:, 0])
+    keys = np.concatenate([np.round(normals * PLANE_NORMAL_STEPS), np.round(offsets / tolerance_m)[:, None]],
+                          axis=1).astype(np.int64)
+    planes, plane_of = np.unique(keys, axis=0, return_inverse=True)
+    plane_of = plane_of.ravel()
+    number = {tuple(plane): index for index, plane in enumerate(planes.tolist())}
+    point_plane = plane_of[point_triangle]
+    contact = np.zeros(len(points), dtype=bool)
+    for plane in np.unique(point_plane):  # one step per plane
+        opposite = number.get(tuple((-planes[plane]).tolist()))
+        if opposite is not None:
+            here = np.flatnonzero(point_plane == plane)
+            contact[here] = _inside_any(points[here], scene_triangles_m[plane_of == opposite])
+    return contact
+
+
+def _inside_any(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(p,) whether each point (on the triangles' plane) lies inside any of the (q, 3, 3) triangles."""
+    inside = np.zeros(len(points), dtype=bool)
+    step = max(1, CANDIDATES_PER_CHUNK // max(1, len(triangles)))
+    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    det = np.where(np.abs(d11 * d22 - d12 * d12) > 1e-300, d11 * d22 - d12 * d12, np.inf)
+    for start in range(0, len(points), step):  # chunks of points x triangles
+        rel = points[start:start + step, None, :] - triangles[None, :, 0]
+        r1, r2 = (rel * e1).sum(-1), (rel * e2).sum(-1)
+        u, v = (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
+        inside[start:start + step] = ((u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9)).any(axis=1)
+    return inside
 
 
 def tangent_rays(points: np.ndarray, normals: np.ndarray, offset_m: float) -> tuple[np.ndarray, np.ndarray]:

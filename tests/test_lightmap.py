@@ -6,6 +6,7 @@ import pytest
 from core import BakeSettings, Material, Scene, SceneError, SunLight, World, bake
 from core.atlas import layout_atlas, pack_blocks
 from core.lightmap import LightmapSettings, bake_lightmap, dilate
+from core.scene import triangle_unit_normals
 from core.texels import rasterize
 from shapes import box_faces, quad
 
@@ -97,6 +98,22 @@ def test_no_light_leaks_under_a_block_on_the_floor():
     sun_only = 3.0 / np.pi
     assert light[under].max() < 0.02 * sun_only
     assert light[beside].min() > 0.95 * sun_only
+
+
+def test_the_bottom_of_a_box_resting_on_a_floor_bakes_black():
+    """A box standing on a single-sided floor under a sky: its bottom face lies on the floor, so no light reaches it
+    (Cycles bakes it black), although below the floor there is only sky; its sides see the sky."""
+    floor = quad((-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0))
+    block = np.concatenate(box_faces((-0.5, -0.5, 0), (0.5, 0.5, 1), inward=False))
+    triangles = np.concatenate([floor, block])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  world=World((0.4, 0.4, 0.4)))
+    result, layout, corner_uv = lightmap_of(scene, [floor, block], LightmapSettings(indirect="interpolate"))
+    texels = rasterize(corner_uv[2:], layout.width, layout.height)
+    normal_z = triangle_unit_normals(block[texels.triangle])[:, 2]
+    light = result.light.reshape(-1, 3)[texels.pixel, 0]
+    assert np.all(light[normal_z < -0.5] == 0.0)
+    assert light[np.abs(normal_z) < 0.5].min() > 0.1  # a side sees half the sky (0.2) and the floor
 
 
 def test_same_seed_same_lightmap():
