@@ -62,25 +62,25 @@ def _lightmap_nodes(nodes, links, uv_map: str, images):
         return colours[0]
     page = nodes.new("ShaderNodeAttribute")
     page.attribute_type, page.attribute_name = "OBJECT", PAGE_PROPERTY
-    total = None
-    for number, colour in enumerate(colours):
-        chosen = nodes.new("ShaderNodeMath")
-        chosen.operation = "COMPARE"
-        links.new(page.outputs["Fac"], chosen.inputs[0])
-        chosen.inputs[1].default_value, chosen.inputs[2].default_value = float(number), 0.5
-        scaled = nodes.new("ShaderNodeVectorMath")
-        scaled.operation = "SCALE"
-        links.new(colour, scaled.inputs[0])
-        links.new(chosen.outputs[0], scaled.inputs["Scale"])
-        if total is not None:
-            added = nodes.new("ShaderNodeVectorMath")
-            added.operation = "ADD"
-            links.new(total, added.inputs[0])
-            links.new(scaled.outputs["Vector"], added.inputs[1])
-            total = added.outputs["Vector"]
-        else:
-            total = scaled.outputs["Vector"]
+    total = _on_page(nodes, links, page.outputs["Fac"], 0, colours[0])
+    for number, colour in enumerate(colours[1:], start=1):
+        added = _mix(nodes, "ADD")
+        links.new(total, added.inputs[6])
+        links.new(_on_page(nodes, links, page.outputs["Fac"], number, colour), added.inputs[7])
+        total = added.outputs[2]
     return total
+
+
+def _on_page(nodes, links, page, number: int, colour):
+    """colour x (page == number): a page's image shows only on the objects whose UVs refer to it."""
+    chosen = nodes.new("ShaderNodeMath")
+    chosen.operation = "COMPARE"
+    links.new(page, chosen.inputs[0])
+    chosen.inputs[1].default_value, chosen.inputs[2].default_value = float(number), 0.5
+    masked = _mix(nodes, "MULTIPLY")
+    links.new(colour, masked.inputs[6])
+    links.new(chosen.outputs[0], masked.inputs[7])
+    return masked.outputs[2]
 
 
 def _attribute_node(nodes, attribute: str):

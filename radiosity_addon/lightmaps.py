@@ -160,8 +160,8 @@ def _set_property(obj, name: str, value) -> None:
 
 def _remove_stale_pages(image_name: str, page_count: int) -> None:
     """Remove the page images an earlier bake of this image made beyond this bake's pages (ours, not the user's)."""
-    for image in list(bpy.data.images):
-        if image.get(OWNED_IMAGE) == image_name and image.get(PAGE_PROPERTY, 0) >= page_count:
+    for image in page_images(image_name):
+        if image.get(PAGE_PROPERTY, 0) >= page_count:
             bpy.data.images.remove(image)
 
 
