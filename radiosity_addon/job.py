@@ -64,7 +64,7 @@ def prepare(context, user: UserSettings, outputs: Outputs) -> Job:
     job = Job(export, settings, outputs)
     if outputs.lightmaps:
         job.lightmap_settings, density = lightmap_settings(user, export.scene.size_m)
-        job.lightmap_plan = plan_lightmap(export, outputs.lightmap, density)
+        job.lightmap_plan = plan_lightmap(context, export, outputs.lightmap, density)
     return job
 
 

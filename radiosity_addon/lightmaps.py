@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import bpy
@@ -20,6 +21,7 @@ import numpy as np
 
 from ..core import SceneError
 from ..core.atlas import AtlasLayout, layout_atlas
+from ..core.scene import triangle_areas
 from .export import Export, ExportedObject
 
 OWNED_UV = "radiosity_lightmap_uv"
@@ -48,12 +50,16 @@ class LightmapOptions:
 
 @dataclass
 class LightmapPlan:
-    """The objects and their atlas layout; per page, the solved scene triangles it holds and their UVs."""
+    """The objects and their atlas layout; per page, the solved scene triangles it holds and their UVs; per mesh,
+    the UV map to write ((t, 3) loops of the original mesh and their (t, 3, 2) UVs); per object, the UV offset of
+    its copy of a shared mesh's block (None for the mesh's first user)."""
 
     objects: list[ExportedObject]
     layout: AtlasLayout
     page_triangles: list[tuple[np.ndarray, np.ndarray]]
     options: LightmapOptions
+    mesh_uvs: dict[str, tuple[np.ndarray, np.ndarray]]
+    uv_offsets: list[np.ndarray | None]
     warnings: list[str] = field(default_factory=list)
 
     @property
@@ -65,53 +71,191 @@ def page_image_name(image_name: str, page: int) -> str:
     return image_name if page == 0 else f"{image_name} {page + 1}"
 
 
-def plan_lightmap(export: Export, options: LightmapOptions, default_texels_per_metre: float) -> LightmapPlan:
-    """Unwrap and pack every baked mesh object; raises SceneError naming a mesh whose UV map name is taken."""
-    warnings, objects = [], []
-    for item in export.objects:
-        if not item.writable:
-            continue
-        if not item.same_topology:
-            warnings.append(f"Object '{item.name}': its modifiers change the topology, so it gets no lightmap "
-                            "(apply them, or bake vertex colours).")
-            continue
-        mesh = bpy.data.meshes[item.mesh_name]
-        if options.uv_map in mesh.uv_layers and mesh.get(OWNED_UV) != options.uv_map:
-            raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a UV map '{options.uv_map}' "
-                             "that this add-on did not make; choose another lightmap UV map name.")
-        objects.append(item)
-    if not objects:
-        raise SceneError("Nothing to bake into a lightmap: no visible mesh object is set to 'Bake'.")
-    first_user: dict[str, int] = {}
-    for index, item in enumerate(objects):
-        first_user.setdefault(item.mesh_name, index)
-    meshes = [_unwrap_input(export, objects[index]) for index in first_user.values()]
-    position = {name: number for number, name in enumerate(first_user)}
-    mesh_of_object = [position[item.mesh_name] for item in objects]
+def plan_lightmap(context, export: Export, options: LightmapOptions, default_texels_per_metre: float) -> LightmapPlan:
+    """Unwrap and pack every baked mesh object; raises SceneError naming a mesh whose UV map name is taken.
+
+    A mesh is unwrapped as its first user renders it when its modifiers keep the topology; otherwise its original
+    mesh is unwrapped and the UV map reaches the rendered mesh through the modifiers, as any UV map does (what
+    Cycles bakes too). Objects whose modifiers repeat the UVs (Array, Mirror, Solidify), drop or squash them would
+    share or lack texels: they get no lightmap, with a warning naming them."""
+    objects = _lightmap_objects(export, options)
     density = options.texels_per_metre if options.texels_per_metre or options.resolution else \
         default_texels_per_metre
-    layout = layout_atlas(meshes, mesh_of_object, options.padding, options.max_size, density,
-                          None if options.texels_per_metre else options.resolution)
+    warnings = []
+    while True:
+        if not objects:
+            raise SceneError(" ".join(["Nothing to bake into a lightmap: no visible mesh object is set to 'Bake'."] +
+                                      warnings))
+        layout, mesh_uvs, uv_offsets = _unwrap(export, objects, options, density)
+        rendered_uv = _rendered_uvs(context, objects, layout, mesh_uvs, uv_offsets, options.uv_map)
+        problems = _uv_problems(export, objects, layout, mesh_uvs, rendered_uv)
+        if not problems:
+            break
+        warnings += [f"Object '{objects[index].name}' gets no lightmap: {problem}; apply them, or bake vertex "
+                     "colours." for index, problem in problems.items()]
+        objects = [item for index, item in enumerate(objects) if index not in problems]
     kept = export.scene_index_of_input()
     pages = [([], []) for _ in range(layout.page_count)]
-    for item, corner_uv, page in zip(objects, layout.corner_uv, layout.page):
+    for item, corner_uv, page in zip(objects, rendered_uv, layout.page):
         scene_triangle = kept[item.first_triangle + np.arange(item.triangle_count)]
         pages[page][0].append(scene_triangle[scene_triangle >= 0])
         pages[page][1].append(corner_uv[scene_triangle >= 0])
     plan = LightmapPlan(objects, layout, [(np.concatenate(t), np.concatenate(u)) for t, u in pages], options,
-                        warnings)
+                        mesh_uvs, uv_offsets, warnings)
     for name in plan.image_names:
         _check_image_name_free(name)
     return plan
 
 
-def _unwrap_input(export: Export, item: ExportedObject) -> tuple[np.ndarray, np.ndarray]:
-    """World-space vertex positions (scaled by the object's lightmap scale) and triangle vertex indices."""
-    triangles = export.input_triangles[item.first_triangle:item.first_triangle + item.triangle_count]
-    positions = np.zeros((int(item.corner_vertices.max()) + 1, 3))
-    positions[item.corner_vertices] = triangles
-    scale = getattr(getattr(bpy.data.objects[item.name], "radiosity", None), "lightmap_scale", 1.0)
-    return positions * scale, item.corner_vertices
+def _lightmap_objects(export: Export, options: LightmapOptions) -> list[ExportedObject]:
+    """The baked mesh objects; raises SceneError naming a mesh whose lightmap UV map name is taken."""
+    objects = [item for item in export.objects if item.writable]
+    for item in objects:
+        mesh = bpy.data.meshes[item.mesh_name]
+        if options.uv_map in mesh.uv_layers and mesh.get(OWNED_UV) != options.uv_map:
+            raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a UV map '{options.uv_map}' "
+                             "that this add-on did not make; choose another lightmap UV map name.")
+    return objects
+
+
+def _unwrap(export: Export, objects: list[ExportedObject], options: LightmapOptions, density: float):
+    """The atlas layout (one block per mesh, a copy per object), the UV map of each mesh and each object's offset
+    from its mesh's first user."""
+    first_user: dict[str, int] = {}
+    for index, item in enumerate(objects):
+        first_user.setdefault(item.mesh_name, index)
+    sources = [_unwrap_input(export, objects[index]) for index in first_user.values()]
+    position = {name: number for number, name in enumerate(first_user)}
+    layout = layout_atlas([(positions, vertices) for positions, vertices, _ in sources],
+                          [position[item.mesh_name] for item in objects], options.padding, options.max_size, density,
+                          None if options.texels_per_metre else options.resolution)
+    mesh_uvs = {name: (sources[position[name]][2], layout.corner_uv[index]) for name, index in first_user.items()}
+    uv_offsets = [None if first_user[item.mesh_name] == index else
+                  layout.corner_uv[index][0, 0] - layout.corner_uv[first_user[item.mesh_name]][0, 0]
+                  for index, item in enumerate(objects)]
+    return layout, mesh_uvs, uv_offsets
+
+
+def _unwrap_input(export: Export, item: ExportedObject) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World-space vertex positions (scaled by the object's lightmap scale), (t, 3) triangle vertex indices and
+    the (t, 3) loops of the original mesh they stand for: the rendered triangles when the modifiers keep the
+    topology, else the original mesh's."""
+    obj, scale = bpy.data.objects[item.name], _lightmap_scale(item)
+    if item.same_topology:
+        triangles = export.input_triangles[item.first_triangle:item.first_triangle + item.triangle_count]
+        positions = np.zeros((int(item.corner_vertices.max()) + 1, 3))
+        positions[item.corner_vertices] = triangles
+        return positions * scale, item.corner_vertices, item.corner_loops
+    mesh = obj.data
+    mesh.calc_loop_triangles()
+    count = len(mesh.loop_triangles)
+    vertices, loops = np.empty(count * 3, dtype=np.int32), np.empty(count * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", vertices)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", positions)
+    matrix = np.array(obj.matrix_world)
+    world = positions.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+    return world * scale, vertices.reshape(-1, 3), loops.reshape(-1, 3)
+
+
+def _lightmap_scale(item: ExportedObject) -> float:
+    return getattr(getattr(bpy.data.objects[item.name], "radiosity", None), "lightmap_scale", 1.0)
+
+
+def _area_m2(export: Export, item: ExportedObject) -> float:
+    return float(triangle_areas(export.input_triangles[item.first_triangle:item.first_triangle +
+                                                       item.triangle_count]).sum())
+
+
+def _rendered_uvs(context, objects, layout: AtlasLayout, mesh_uvs, uv_offsets, uv_map: str) -> list:
+    """Per object, the (t, 3, 2) lightmap UVs of its rendered triangles: the layout's where the modifiers keep
+    the topology; else what the modifiers make of the UV map (None where they drop it). The UV maps are written
+    for the evaluation and put back as they were."""
+    baked = [corner_uv if item.same_topology else None for item, corner_uv in zip(objects, layout.corner_uv)]
+    changed = [index for index, item in enumerate(objects) if not item.same_topology]
+    if not changed:
+        return baked
+    meshes = {objects[index].mesh_name for index in changed}
+    with _uv_maps_set(meshes, uv_map, mesh_uvs):
+        depsgraph = context.evaluated_depsgraph_get()
+        for index in changed:
+            item = objects[index]
+            evaluated = bpy.data.objects[item.name].evaluated_get(depsgraph)
+            mesh = evaluated.to_mesh()
+            try:
+                layer = mesh.uv_layers.get(uv_map)
+                if layer is None or len(mesh.loops) <= item.corner_loops.max():
+                    continue
+                uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+                layer.data.foreach_get("uv", uv)
+            finally:
+                evaluated.to_mesh_clear()
+            offset = uv_offsets[index] if uv_offsets[index] is not None else 0.0
+            baked[index] = uv.reshape(-1, 2).astype(np.float64)[item.corner_loops] + offset
+    return baked
+
+
+@contextmanager
+def _uv_maps_set(mesh_names, uv_map: str, mesh_uvs):
+    """Temporarily give these meshes the planned lightmap UV map (a previous bake's is restored after, a new
+    one removed, and the active UV maps kept)."""
+    saved = []
+    for name in mesh_names:
+        mesh = bpy.data.meshes[name]
+        layer = mesh.uv_layers.get(uv_map)
+        previous = None
+        if layer is not None:
+            previous = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+            layer.data.foreach_get("uv", previous)
+        active = mesh.uv_layers.active_index
+        render = next((l.name for l in mesh.uv_layers if l.active_render), None)
+        saved.append((mesh, previous, active, render))
+        _write_uv_map(mesh, uv_map, *mesh_uvs[name])
+        mesh.update()
+    try:
+        yield
+    finally:
+        for mesh, previous, active, render in saved:
+            if previous is None:
+                mesh.uv_layers.remove(mesh.uv_layers[uv_map])
+            else:
+                mesh.uv_layers[uv_map].data.foreach_set("uv", previous)
+            mesh.uv_layers.active_index = active
+            if render is not None:
+                mesh.uv_layers[render].active_render = True
+            mesh.update()
+
+
+def _uv_problems(export: Export, objects, layout: AtlasLayout, mesh_uvs, rendered_uv) -> dict[int, str]:
+    """Object index -> why its rendered lightmap UVs cannot be baked, for those that cannot."""
+    problems = {}
+    for index, item in enumerate(objects):
+        uv_per_m2 = (layout.texels_per_metre * _lightmap_scale(item)) ** 2 / (layout.width * layout.height)
+        problem = _uv_problem(item, rendered_uv[index], mesh_uvs[item.mesh_name][1], _area_m2(export, item),
+                              uv_per_m2)
+        if problem:
+            problems[index] = problem
+    return problems
+
+
+def _uv_problem(item: ExportedObject, rendered_uv, mesh_uv: np.ndarray, rendered_m2: float, uv_per_m2: float):
+    """Why an object's rendered lightmap UVs cannot be baked (None: they can): its modifiers drop the UV map,
+    repeat it so that copies overlap (the UV area exceeds the UV map's by over 10%), or squash it (under a quarter
+    of the UV area its rendered surface needs at the layout's density, ``uv_per_m2``)."""
+    if item.same_topology:
+        return None
+    if rendered_uv is None:
+        return "its modifiers do not keep UV maps"
+    if _uv_area(rendered_uv) > 1.1 * _uv_area(mesh_uv):
+        return "its modifiers repeat its UV map (as Array, Mirror and Solidify do), so copies would share texels"
+    if _uv_area(rendered_uv) < 0.25 * rendered_m2 * uv_per_m2:
+        return "its modifiers squash its UV map (as Wireframe does), so its faces would cover no texels"
+    return None
+
+
+def _uv_area(corner_uv: np.ndarray) -> float:
+    return float(triangle_areas(np.pad(corner_uv, [(0, 0), (0, 0), (0, 1)])).sum())
 
 
 def _check_image_name_free(name: str) -> None:
@@ -126,16 +270,13 @@ def write_lightmap(plan: LightmapPlan, lights: list[np.ndarray], metadata: dict,
     options, layout = plan.options, plan.layout
     # Every file first: writing may fail, and nothing in the .blend has changed yet.
     paths = [_write_files(options, name, light, metadata, folder) for name, light in zip(plan.image_names, lights)]
-    written: dict[str, np.ndarray] = {}
-    for item, corner_uv, page in zip(plan.objects, layout.corner_uv, layout.page):
-        obj, mesh = bpy.data.objects[item.name], bpy.data.meshes[item.mesh_name]
+    for name, (loops, corner_uv) in plan.mesh_uvs.items():
+        _write_uv_map(bpy.data.meshes[name], options.uv_map, loops, corner_uv)
+        bpy.data.meshes[name][OWNED_UV] = options.uv_map
+    for item, offset, page in zip(plan.objects, plan.uv_offsets, layout.page):
+        obj = bpy.data.objects[item.name]
         _set_property(obj, PAGE_PROPERTY, int(page) if layout.page_count > 1 else None)
-        if mesh.name in written:
-            obj[OFFSET_PROPERTY] = (corner_uv[0, 0] - written[mesh.name][0, 0]).tolist()
-            continue
-        _write_uv_map(mesh, options.uv_map, item.corner_loops, corner_uv)
-        written[mesh.name] = corner_uv
-        _set_property(obj, OFFSET_PROPERTY, None)
+        _set_property(obj, OFFSET_PROPERTY, None if offset is None else offset.tolist())
     images = [_load_image(name, path, options.image_name, page, pack=not folder) for page, (name, path) in
               enumerate(zip(plan.image_names, paths))]
     _remove_stale_pages(options.image_name, layout.page_count)
@@ -176,7 +317,6 @@ def _write_uv_map(mesh, name: str, corner_loops: np.ndarray, corner_uv: np.ndarr
     uv = np.zeros((len(mesh.loops), 2), dtype=np.float32)
     uv[corner_loops.ravel()] = corner_uv.reshape(-1, 2)
     layer.data.foreach_set("uv", uv.ravel())
-    mesh[OWNED_UV] = name
 
 
 def _write_files(options: LightmapOptions, name: str, light: np.ndarray, metadata: dict, folder: str) -> str:

@@ -199,3 +199,45 @@ def test_a_density_too_high_for_one_image_bakes_several(empty_scene, extension, 
     group = bpy.data.node_groups["Radiosity Baked Light"]
     shown = {node.image.name for node in group.nodes if node.type == "TEX_IMAGE"}
     assert shown == {"Radiosity Lightmap", "Radiosity Lightmap 2", "Radiosity Lightmap 3"}
+
+
+def test_objects_whose_modifiers_change_the_topology(empty_scene, extension, tmp_path):
+    """A tile with a Subdivision modifier and its linked duplicate get a lightmap through the UV map their
+    modifiers carry: under a sun of strength 3 overhead every texel the duplicate's rendered triangles cover (at its
+    UV offset) holds 3 / pi = 0.9549 (within 1%); the tile, in the shadow of a shadow-only roof, reads black.
+    A tile whose Array modifier repeats the UVs gets none, a warning naming it, and its UV maps stay as they were."""
+    from radiosity_baker.core.image_file import read_image
+    from radiosity_baker.core.texels import rasterize
+    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
+    from radiosity_baker.radiosity_addon.presets import UserSettings
+    job = extension.radiosity_addon.job
+    subdivided = grid_plane("Subdivided", 1.0, 2)
+    modifier = subdivided.modifiers.new("Subdivision", "SUBSURF")
+    modifier.subdivision_type, modifier.levels, modifier.render_levels = "SIMPLE", 2, 2
+    twin = subdivided.copy()
+    twin.name, twin.location = "Subdivided twin", (3.0, 0.0, 0.0)
+    empty_scene.collection.objects.link(twin)
+    grid_plane("Roof", 2.0, 1, location=(0.0, 0.0, 1.0)).radiosity.mode = "SHADOW_ONLY"
+    arrayed = grid_plane("Arrayed", 1.0, 1, location=(0.0, 3.0, 0.0))
+    arrayed.modifiers.new("Array", "ARRAY").count = 2
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0)
+    bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs(
+        "LIGHTMAP", lightmap=LightmapOptions(texels_per_metre=32, padding=2), lightmap_folder=str(tmp_path)))
+    job.solve(bake, lambda fraction, message: None, lambda: False)
+    report = job.apply(bake)
+    assert {entry["name"] for entry in report["objects"]} == {"Subdivided", "Subdivided twin"}
+    assert any("'Arrayed'" in warning and "Array" in warning for warning in report["warnings"])
+    assert [layer.name for layer in arrayed.data.uv_layers] == ["UVMap"]
+    assert [layer.name for layer in subdivided.data.uv_layers] == ["UVMap", "Lightmap"]
+    assert subdivided.data.uv_layers.active.name == "UVMap"
+    light = read_image(str(tmp_path / "Radiosity_Lightmap.exr"))
+    height, width = light.shape[:2]
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for obj, expected in ((subdivided, 0.0), (twin, 3.0 / np.pi)):
+        rendered = obj.evaluated_get(depsgraph).to_mesh()
+        corner_uv = triangle_uvs(rendered, "Lightmap") + obj.get("radiosity_lightmap_offset", (0.0, 0.0))
+        assert len(rendered.loops) == 16 * len(obj.data.loops)
+        obj.evaluated_get(depsgraph).to_mesh_clear()
+        texels = rasterize(corner_uv, width, height)
+        assert len(texels.pixel) > 0.9 * 32 ** 2
+        assert light.reshape(-1, 3)[texels.pixel] == pytest.approx(expected, rel=0.01, abs=1e-3)
