@@ -14,8 +14,8 @@ import numpy as np
 from .gather import final_gather
 from .progress import BakeCancelled, Progress, Timer, never_cancelled, no_progress
 from .scene import SceneError, triangle_areas
-from .texels import (Texels, face_to_face_contact, inset, push_out_of_geometry, rasterize, sample_points,
-                     subtexel_barycentrics)
+from .texels import (Texels, face_to_face_contact, inset, inside_closed_geometry, push_out_of_geometry, rasterize,
+                     sample_points, subtexel_barycentrics)
 
 INDIRECT_METHODS = ("gather", "interpolate")
 
@@ -70,8 +70,8 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     contact = face_to_face_contact(scene.triangles, tri, points, 4 * offset)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
     points, moved = push_out_of_geometry(direct.caster, scene.triangles, points, normals, reach, offset)
-    sub_points = _subtexel_points(scene.triangles[tri], texels, corner_uv, settings.subtexel_samples_per_edge,
-                                  points, moved, 4 * offset)
+    sub_points, sub_bary = _subtexel_points(scene.triangles[tri], texels, corner_uv,
+                                            settings.subtexel_samples_per_edge, points, moved, 4 * offset)
     timer.lap("texels")
     if cancelled():
         raise BakeCancelled("Bake cancelled before lighting the lightmap.")
@@ -79,10 +79,12 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     light = _direct_light(solution, sub_points, normals, tri, texels.barycentric, settings.subtexel_samples_per_edge)
     timer.lap("direct")
     if settings.indirect == "gather":
-        light += final_gather(solution, direct.caster, sub_points, normals, settings.gather_samples_per_edge,
-                              offset, settings.seed, cancelled, progress)
+        light = _footprint_mean(scene, light, tri, sub_bary) + final_gather(
+            solution, direct.caster, sub_points, normals, settings.gather_samples_per_edge, offset, settings.seed,
+            cancelled, progress)
     else:
-        light += solution.indirect_light(tri, texels.barycentric)
+        light = _footprint_mean(scene, light + _interpolated_indirect(solution, tri, sub_bary, sub_points, normals),
+                                tri, sub_bary)
     timer.lap("indirect")
     light = solution.black_stays_black(light, tri)
     # Resting on another face, no light gets there; texels pushed out to the visible floor beside a box keep that
@@ -99,24 +101,49 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
                     len(texels.pixel), timer.laps)
 
 
+def _interpolated_indirect(solution, tri, sub_bary, sub_points, normals) -> np.ndarray:
+    """(m, q, 3) indirect light interpolated from the element corners at each sub-texel point; 0 at points inside
+    closed geometry (the part of a texel that reaches under a box standing on the floor, where Cycles' samples
+    see the inside of the box)."""
+    m, q = sub_points.shape[:2]
+    indirect = solution.indirect_light(np.repeat(tri, q), sub_bary.reshape(-1, 3), exposed_weight=True)
+    indirect = indirect.reshape(m, q, 3)
+    inside = inside_closed_geometry(solution.direct.caster, solution.scene.triangles, sub_points.reshape(-1, 3),
+                                    np.repeat(normals, q, axis=0), solution.direct.offset_m).reshape(m, q)
+    indirect[inside] = 0.0
+    return indirect
+
+
+def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndarray) -> np.ndarray:
+    """(m, 3) reflectance-weighted mean of (m, q, 3) light over each texel's sub-points. Cycles' Diffuse bake
+    without Color divides the diffuse light x colour its samples gathered by the colour they gathered, so where a
+    texture's edge meets a shadow's edge inside one texel, the brighter-coloured side counts more; multiplied by
+    the texture again, the texel then keeps its mean exitance."""
+    m, q = light.shape[:2]
+    weight = scene.reflectance_at(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(m, q, 3)
+    total = weight.sum(axis=1)
+    weighted = (weight * light).sum(axis=1) / np.where(total > 0, total, 1.0)
+    return np.where(total > 0, weighted, light.mean(axis=1))
+
+
 def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, points, moved,
-                     inset_m) -> np.ndarray:
+                     inset_m) -> tuple[np.ndarray, np.ndarray]:
     """(m, k^2, 3) points over each texel's footprint (inset from the triangle's edges); texels pushed out of
     geometry keep their one moved point."""
     bary = subtexel_barycentrics(texels, corner_uv, samples_per_edge)
     sub_points = inset(np.einsum("mqc,mck->mqk", bary, triangles_m), triangles_m.mean(axis=1)[:, None, :], inset_m)
     keep = moved | ~texels.centre_inside
     sub_points[keep] = points[keep, None, :]
-    return sub_points
+    return sub_points, bary
 
 
 def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge) -> np.ndarray:
-    """Direct light averaged over the sub-texel points, with 1/k the shadow rays per edge at each (rounded up)."""
+    """(m, q, 3) direct light at the sub-texel points, with 1/k the shadow rays per edge at each (rounded up)."""
     q = sub_points.shape[1]
     light_samples = -(-solution.direct.samples_per_edge // samples_per_edge)
     light = solution.direct_light(sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0), np.repeat(tri, q),
                                   np.repeat(barycentric, q, axis=0), light_samples)
-    return light.reshape(-1, q, 3).mean(axis=1)
+    return light.reshape(-1, q, 3)
 
 
 def texel_size_m(triangles_m: np.ndarray, corner_uv: np.ndarray, width: int, height: int) -> np.ndarray:

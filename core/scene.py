@@ -175,6 +175,19 @@ class Scene:
         """(M, 3) reflectance per material."""
         return np.array([m.reflectance for m in self.materials], dtype=np.float64).reshape(-1, 3)
 
+    def reflectance_at(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+        """(m, 3) reflectance at surface points: the material's, or its texture's nearest texel where the
+        material has one and the triangle has finite UVs."""
+        material = self.material_index[scene_triangle]
+        reflectance = self.reflectance[material]
+        uv = np.einsum("mc,mck->mk", barycentric, self.triangle_uv[scene_triangle])
+        mapped = np.isfinite(uv).all(axis=1)
+        for index, item in enumerate(self.materials):
+            textured = np.flatnonzero((material == index) & mapped) if item.texture is not None else []
+            if len(textured):
+                reflectance[textured] = item.texture.lookup(uv[textured])
+        return reflectance
+
     @property
     def emitted_radiance(self) -> np.ndarray:
         """(M, 3) emitted radiance per material, W m^-2 sr^-1."""

@@ -3,7 +3,10 @@
 The baked quantity is "diffuse light without albedo": irradiance / pi (W m^-2 sr^-1, scene-linear), what Cycles'
 Diffuse bake with Direct + Indirect and no Color stores (docs/units.md). Per-element values are smoothed to the
 element corners by area-weighted nodal averaging (Cohen & Greenberg 1985) among elements that share a welded
-vertex and whose normals differ by less than ``SMOOTH_ANGLE_RAD``, so creases stay sharp.
+vertex and whose normals differ by less than ``SMOOTH_ANGLE_RAD``, so creases stay sharp. Lightmaps weight by
+exposed area instead: they resolve the dark footprint under a box texel by texel, so elements buried there must
+not darken the corners beside it; a vertex on the footprint's edge keeps the area weight (Cycles' vertex bake
+there averages in the dark side).
 """
 from __future__ import annotations
 
@@ -31,7 +34,7 @@ class Solution:
     direct: DirectLighting | None = None
     ambient_irradiance: np.ndarray = field(default_factory=lambda: np.zeros(3))
     _corner_light: np.ndarray | None = field(default=None, init=False, repr=False)
-    _corner_indirect: np.ndarray | None = field(default=None, init=False, repr=False)
+    _corner_indirect: dict = field(default_factory=dict, init=False, repr=False)
     _corner_reflected: np.ndarray | None = field(default=None, init=False, repr=False)
     _lookup_tables: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
 
@@ -65,15 +68,16 @@ class Solution:
             self._corner_light = self._nodal_average(self.element_light())
         return self._corner_light
 
-    def _corner_indirect_light(self) -> np.ndarray:
+    def _corner_indirect_light(self, exposed_weight: bool) -> np.ndarray:
         """(n, 3, 3) indirect light (total minus what ``direct`` gives at the element centroids) at corners."""
-        if self._corner_indirect is None:
+        if exposed_weight not in self._corner_indirect:
             elements = self.state.elements
             direct = self.direct.irradiance(elements.centroid, elements.normal, elements.patch)
-            self._corner_indirect = self._nodal_average((self.element_irradiance() - direct) / np.pi)
-        return self._corner_indirect
+            self._corner_indirect[exposed_weight] = self._nodal_average(
+                (self.element_irradiance() - direct) / np.pi, exposed_weight)
+        return self._corner_indirect[exposed_weight]
 
-    def _nodal_average(self, light: np.ndarray) -> np.ndarray:
+    def _nodal_average(self, light: np.ndarray, exposed_weight: bool = False) -> np.ndarray:
         elements = self.state.elements
         _, corner_vertex = weld_vertices(self.mesh, elements.node, self.weld_tolerance_m)
         corner_of = corner_vertex.ravel()
@@ -88,6 +92,8 @@ class Solution:
         mine = owner[corner]
         smooth = (elements.normal[mine] * elements.normal[partner]).sum(axis=1) >= np.cos(SMOOTH_ANGLE_RAD)
         weight = elements.area_m2[partner] * smooth
+        if exposed_weight:  # a tiny share of the area keeps a corner that only buried elements share defined
+            weight = (elements.exposed_m2[partner] + 1e-6 * elements.area_m2[partner]) * smooth
         total = np.zeros((3 * len(elements.node), 3))
         np.add.at(total, corner, weight[:, None] * light[partner])
         norm = np.bincount(corner, weights=weight, minlength=3 * len(elements.node))
@@ -129,9 +135,11 @@ class Solution:
                                              samples_per_edge) / np.pi
         return out
 
-    def indirect_light(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
-        """(m, 3) indirect light (total minus direct at the element centroids), interpolated from the corners."""
-        return self.interpolate(self._corner_indirect_light(), scene_triangle, barycentric)
+    def indirect_light(self, scene_triangle: np.ndarray, barycentric: np.ndarray,
+                       exposed_weight: bool = False) -> np.ndarray:
+        """(m, 3) indirect light (total minus direct at the element centroids), interpolated from the corners
+        (averaged by exposed area with ``exposed_weight``: for lightmap texels, see the module's docstring)."""
+        return self.interpolate(self._corner_indirect_light(exposed_weight), scene_triangle, barycentric)
 
     def reflected_radiosity(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
         """(m, 3) reflected radiosity rho H (W m^-2, emission excluded), interpolated from the element corners:

@@ -166,3 +166,43 @@ def test_seams_and_contacts_between_touching_cubes_on_a_floor():
     in_front = on_floor & (points[:, 1] > -0.65) & (points[:, 1] < -0.55) & (np.abs(points[:, 0]) < 0.8)
     open_floor = on_floor & (points[:, 1] < -2.0)
     assert light[in_front].min() > 0.95 * np.median(light[open_floor])
+
+
+def test_a_texel_where_a_texture_edge_meets_a_shadow_edge_is_reflectance_weighted():
+    """Cycles' Diffuse bake without Color divides the light x colour its samples gather by the colour they
+    gather. A 2 x 2 m floor mapped onto 32 x 32 texels, its texture 0.8 left of x_e and 0.05 right of it, a
+    shadow-only slab shading x > x_e from a sun overhead (E = 3 W/m^2). Texel (16, 8) has 2/3 of its footprint left
+    of x_e (x_e sits 1/6 texel right of its centre, between its sub-texel columns): it holds
+    (0.8 x 2/3 x E/pi) / (0.8 x 2/3 + 0.05 x 1/3) = 0.9697 E/pi, not the plain mean 2/3 E/pi (within 0.5%)."""
+    from core.texture import ReflectanceTexture
+    width = 32
+    u_edge = (16.5 + 1 / 6) / width
+    x_edge = 2 * u_edge - 1
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    slab = quad((x_edge, -2, 0.5), (3, -2, 0.5), (3, 2, 0.5), (x_edge, 2, 0.5))
+    floor_uv = (floor[..., :2] + 1) / 2
+    pixels = np.full((1, 96, 3), 0.05)
+    pixels[:, :round(u_edge * 96)] = 0.8  # the texture's edge at u_edge exactly (50 of 96 pixels)
+    materials = [Material("checker", (0.5,) * 3, texture=ReflectanceTexture(pixels)), Material("slab", (0.5,) * 3)]
+    scene = Scene(np.concatenate([floor, slab]), [0, 0, 1, 1], materials, casts_only=[False, False, True, True],
+                  triangle_uv=np.concatenate([floor_uv, np.zeros((2, 3, 2))]),
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    result = bake_lightmap(solution, np.array([0, 1]), floor_uv, width, width, LightmapSettings(indirect="interpolate"))
+    row = result.light[8, :, 0]  # away from the floor's diagonal, where sub-points fold into one triangle
+    lit = 3.0 / np.pi
+    assert row[:16] == pytest.approx(lit, rel=1e-6) and np.all(row[17:] == 0.0)
+    assert row[16] == pytest.approx(0.8 * 2 / 3 / (0.8 * 2 / 3 + 0.05 / 3) * lit, rel=0.005)
+
+
+def test_reflectance_at_a_point_reads_its_texture():
+    """A textured quad returns the texel under each point's interpolated UV; an untextured one its colour."""
+    from core.texture import ReflectanceTexture
+    pixels = np.array([[[0.1, 0.2, 0.3], [0.4, 0.5, 0.6]]])  # one row, two texels: u < 0.5 and u >= 0.5
+    floor = quad((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0))
+    scene = Scene(np.concatenate([floor, floor + [0, 0, 1]]), [0, 0, 1, 1],
+                  [Material("textured", (0.9,) * 3, texture=ReflectanceTexture(pixels)), Material("plain", (0.7,) * 3)],
+                  triangle_uv=np.concatenate([floor[..., :2], np.full((2, 3, 2), np.nan)]), world=World((1.0,) * 3))
+    bary = np.array([[0.8, 0.1, 0.1], [0.1, 0.8, 0.1], [1 / 3, 1 / 3, 1 / 3]])
+    values = scene.reflectance_at(np.array([0, 0, 2]), bary)
+    assert values == pytest.approx(np.array([[0.1, 0.2, 0.3], [0.4, 0.5, 0.6], [0.7, 0.7, 0.7]]))
