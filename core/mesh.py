@@ -230,13 +230,9 @@ def _element_reflectance(mesh: ElementMesh, scene: Scene, nodes, scene_triangle,
     """(n, 3) reflectance: the material's, or its texture's mean over each element's UV footprint (where the
     triangle has finite UVs)."""
     reflectance = scene.reflectance[material]
-    mapped = np.isfinite(scene.triangle_uv[scene_triangle]).all(axis=(1, 2))
-    for index, item in enumerate(scene.materials):
-        textured = np.flatnonzero((material == index) & mapped) if item.texture is not None else []
-        if len(textured):
-            corner_uv = np.einsum("nij,njk->nik", mesh.node_bary[nodes[textured]],
-                                  scene.triangle_uv[scene_triangle[textured]])
-            reflectance[textured] = item.texture.footprint_mean(corner_uv)
+    for texture, rows in scene.textured_rows(scene_triangle):
+        corner_uv = np.einsum("nij,njk->nik", mesh.node_bary[nodes[rows]], scene.triangle_uv[scene_triangle[rows]])
+        reflectance[rows] = texture.footprint_mean(corner_uv)
     return reflectance
 
 

@@ -178,15 +178,21 @@ class Scene:
     def reflectance_at(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
         """(m, 3) reflectance at surface points: the material's, or its texture's nearest texel where the
         material has one and the triangle has finite UVs."""
-        material = self.material_index[scene_triangle]
-        reflectance = self.reflectance[material]
-        uv = np.einsum("mc,mck->mk", barycentric, self.triangle_uv[scene_triangle])
-        mapped = np.isfinite(uv).all(axis=1)
-        for index, item in enumerate(self.materials):
-            textured = np.flatnonzero((material == index) & mapped) if item.texture is not None else []
-            if len(textured):
-                reflectance[textured] = item.texture.lookup(uv[textured])
+        reflectance = self.reflectance[self.material_index[scene_triangle]]
+        for texture, rows in self.textured_rows(scene_triangle):
+            uv = np.einsum("mc,mck->mk", barycentric[rows], self.triangle_uv[scene_triangle[rows]])
+            reflectance[rows] = texture.lookup(uv)
         return reflectance
+
+    def textured_rows(self, scene_triangle: np.ndarray):
+        """(texture, rows) for each textured material among the given triangles: the rows whose triangle has it
+        and finite UVs."""
+        material = self.material_index[scene_triangle]
+        mapped = np.isfinite(self.triangle_uv[scene_triangle]).all(axis=(1, 2))
+        for index, item in enumerate(self.materials):
+            rows = np.flatnonzero((material == index) & mapped) if item.texture is not None else []
+            if len(rows):
+                yield item.texture, rows
 
     @property
     def emitted_radiance(self) -> np.ndarray:
