@@ -91,9 +91,9 @@ class Solution:
         partner = owner[order[np.repeat(start_of, size_of) + _ranges(size_of)]]
         mine = owner[corner]
         smooth = (elements.normal[mine] * elements.normal[partner]).sum(axis=1) >= np.cos(SMOOTH_ANGLE_RAD)
-        weight = elements.area_m2[partner] * smooth
-        if exposed_weight:  # a tiny share of the area keeps a corner that only buried elements share defined
-            weight = (elements.exposed_m2[partner] + 1e-6 * elements.area_m2[partner]) * smooth
+        # With exposed_weight, a tiny share of the area keeps a corner that only buried elements share defined.
+        area = elements.exposed_m2 + 1e-6 * elements.area_m2 if exposed_weight else elements.area_m2
+        weight = area[partner] * smooth
         total = np.zeros((3 * len(elements.node), 3))
         np.add.at(total, corner, weight[:, None] * light[partner])
         norm = np.bincount(corner, weights=weight, minlength=3 * len(elements.node))
