@@ -136,29 +136,38 @@ def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials"):
     corners' UVs in their material's texture (t, 3, 2), or None."""
     mesh = evaluated.to_mesh()
     try:
-        mesh.calc_loop_triangles()
-        count = len(mesh.loop_triangles)
-        if count == 0:
+        corners, loops = loop_triangles(mesh)
+        if len(corners) == 0:
             return None
-        positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        mesh.vertices.foreach_get("co", positions)
-        corners = np.empty(count * 3, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("vertices", corners)
-        loops = np.empty(count * 3, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("loops", loops)
-        slot = np.empty(count, dtype=np.int32)
+        world = world_positions(mesh, matrix)
+        slot = np.empty(len(corners), dtype=np.int32)
         mesh.loop_triangles.foreach_get("material_index", slot)
         table = np.array([materials.index(s.material) for s in evaluated.material_slots] or
                          [materials.index(None)])
         material = table[np.clip(slot, 0, len(table) - 1)]
-        uv = _texture_uvs(mesh, material, loops.reshape(-1, 3), materials.list)
+        uv = _texture_uvs(mesh, material, loops, materials.list)
     finally:
         evaluated.to_mesh_clear()
-    world = positions.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
-    corners, loops = corners.reshape(-1, 3), loops.reshape(-1, 3)
     if np.linalg.det(matrix[:3, :3]) < 0:  # mirrored: keep the winding consistent with Blender's normals
         corners, loops, uv = corners[:, ::-1], loops[:, ::-1], uv[:, ::-1]
     return world[corners], material, loops, corners, uv
+
+
+def loop_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """A mesh's triangulation: (t, 3) vertex and (t, 3) loop indices of each triangle's corners."""
+    mesh.calc_loop_triangles()
+    count = len(mesh.loop_triangles)
+    vertices, loops = np.empty(count * 3, dtype=np.int32), np.empty(count * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", vertices)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    return vertices.reshape(-1, 3), loops.reshape(-1, 3)
+
+
+def world_positions(mesh, matrix: np.ndarray) -> np.ndarray:
+    """(v, 3) world-space vertex positions, m: the mesh's coordinates through the 4 x 4 object matrix."""
+    positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", positions)
+    return positions.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
 
 
 def _texture_uvs(mesh, material: np.ndarray, loops: np.ndarray, materials: list[Material]) -> np.ndarray:

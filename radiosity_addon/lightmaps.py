@@ -22,7 +22,7 @@ import numpy as np
 from ..core import SceneError
 from ..core.atlas import AtlasLayout, layout_atlas
 from ..core.scene import triangle_areas
-from .export import Export, ExportedObject
+from .export import Export, ExportedObject, loop_triangles, world_positions
 
 OWNED_UV = "radiosity_lightmap_uv"
 OWNED_IMAGE = "radiosity_lightmap"
@@ -146,17 +146,8 @@ def _unwrap_input(export: Export, item: ExportedObject) -> tuple[np.ndarray, np.
         positions = np.zeros((int(item.corner_vertices.max()) + 1, 3))
         positions[item.corner_vertices] = triangles
         return positions * scale, item.corner_vertices, item.corner_loops
-    mesh = obj.data
-    mesh.calc_loop_triangles()
-    count = len(mesh.loop_triangles)
-    vertices, loops = np.empty(count * 3, dtype=np.int32), np.empty(count * 3, dtype=np.int32)
-    mesh.loop_triangles.foreach_get("vertices", vertices)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.vertices.foreach_get("co", positions)
-    matrix = np.array(obj.matrix_world)
-    world = positions.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
-    return world * scale, vertices.reshape(-1, 3), loops.reshape(-1, 3)
+    vertices, loops = loop_triangles(obj.data)
+    return world_positions(obj.data, np.array(obj.matrix_world)) * scale, vertices, loops
 
 
 def _lightmap_scale(item: ExportedObject) -> float:
