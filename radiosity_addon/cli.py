@@ -53,8 +53,11 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--max-size", type=int, default=4096,
                         help="texels a side of a lightmap image; more images when the density needs them "
                              "(default: 4096)")
+    parser.add_argument("--indirect", choices=["interpolate", "gather"], default="interpolate",
+                        help="lightmap indirect light: interpolated from the elements, or a final gather per texel "
+                             "(custom quality; the presets interpolate)")
     parser.add_argument("--gather-samples", type=int, default=8,
-                        help="final-gather rays per texel: this squared (custom quality)")
+                        help="final-gather rays per texel: this squared (custom quality with --indirect gather)")
     parser.add_argument("--uv-map", default="Lightmap", help="name of the lightmap UV map to make")
     parser.add_argument("--lightmap-image", default="Radiosity Lightmap", help="lightmap image and file name")
     parser.add_argument("--lightmap-dir", metavar="DIR",
@@ -103,7 +106,7 @@ def _bake(args) -> dict:
         raise CommandError(EXIT_INPUT, f"cannot read {args.input}: {str(error).strip().splitlines()[-1]}")
     user = UserSettings(args.quality.upper(), args.element_size, args.patch_size, args.adaptive_passes,
                         args.residual, args.light_samples, args.form_factors, args.seed, args.gather_samples,
-                        args.texels_per_meter or 0.0)
+                        args.texels_per_meter or 0.0, args.indirect)
     lightmap = LightmapOptions(args.uv_map, args.lightmap_image, args.texels_per_meter, args.resolution,
                                args.padding, args.max_size, half=not args.float, png_exposure=args.png_exposure)
     outputs = Outputs(args.target.upper(), args.attribute, args.radiosity_mesh, lightmap, folder)

@@ -33,8 +33,11 @@ class RENDER_PT_radiosity(bpy.types.Panel):
             exposure = box.column()
             exposure.enabled = settings.lightmap_png
             exposure.prop(settings, "lightmap_png_exposure")
-            gather = box.column()
-            gather.enabled = settings.quality == "CUSTOM"
+            indirect = box.column()
+            indirect.enabled = settings.quality == "CUSTOM"
+            indirect.prop(settings, "lightmap_indirect")
+            gather = indirect.column()
+            gather.enabled = settings.lightmap_indirect == "gather"
             gather.prop(settings, "gather_samples")
         layout.prop(settings, "create_radiosity_mesh")
         if STATUS["running"]:

@@ -8,21 +8,20 @@ from dataclasses import dataclass
 #        grows with elements x patches, so the patch count grows slowly.
 # The residual thresholds are low because shooting is cheap next to the form factors: on the Cornell box Medium at
 # 0.001 takes the same time as at 0.01 and is 0.6 points closer to Cycles (the ambient term covers most, not all,
-# of what an early stop leaves).
+# of what an early stop leaves). Light samples: a lightmap texel's 3 x 3 points each get ceil(s / 3)^2 shadow rays,
+# so 7 gives them 3 x 3 (the room's penumbrae measured 2.25% -> 2.0% from Cycles, at the same time: less noise
+# also means fewer adaptive splits) and 10 gives 4 x 4. High's second adaptive pass and a final gather measured no
+# closer to Cycles on the sample scenes, at 1.5 to 3 times the time (docs/benchmarks.md).
 PRESETS = {
     "DRAFT": (16, 6, 0, 0.02, 2),
-    "MEDIUM": (32, 8, 1, 0.001, 4),
-    "HIGH": (64, 10, 2, 0.0005, 6),
+    "MEDIUM": (32, 8, 1, 0.001, 7),
+    "HIGH": (48, 8, 1, 0.0005, 10),
 }
 ADAPTIVE_THRESHOLD = 0.3
-# Lightmaps per preset: (texels across the scene's diagonal, indirect light method, gather rays per texel edge).
-# Medium interpolates the indirect light: on the Cornell box it measured closer to Cycles than an 8 x 8 gather
-# (docs/benchmarks.md), whose rays pick up the hot elements on the rim of the light's opening.
-LIGHTMAP_PRESETS = {
-    "DRAFT": (128, "interpolate", 1),
-    "MEDIUM": (256, "interpolate", 1),
-    "HIGH": (512, "gather", 16),
-}
+# Lightmap texels across the scene's diagonal per preset. Presets interpolate the indirect light from the element
+# corners: on both sample scenes it measured closer to Cycles than a 16 x 16 final gather, whose rays pick up the
+# hot elements on the rim of a light's opening and leave 2-3% noise per texel (docs/benchmarks.md).
+LIGHTMAP_TEXELS_ACROSS = {"DRAFT": 128, "MEDIUM": 256, "HIGH": 512}
 
 
 @dataclass(frozen=True)
@@ -39,6 +38,7 @@ class UserSettings:
     seed: int = 0
     gather_samples_per_edge: int = 8
     texels_per_metre: float = 0.0
+    lightmap_indirect: str = "interpolate"
 
 
 def bake_settings(user: UserSettings, scene_size_m: float):
@@ -56,12 +56,12 @@ def bake_settings(user: UserSettings, scene_size_m: float):
 
 
 def lightmap_settings(user: UserSettings, scene_size_m: float):
-    """(core.LightmapSettings, default texels per metre) for the user's choice; CUSTOM gathers with the user's
-    sample count at the user's density (or the Medium density when it is 0)."""
+    """(core.LightmapSettings, default texels per metre) for the user's choice: a preset's density with
+    interpolated indirect light, or CUSTOM's indirect method and gather samples at the user's density (or the
+    Medium density when it is 0)."""
     from ..core.lightmap import LightmapSettings
-    across, method, samples = LIGHTMAP_PRESETS.get(user.quality, LIGHTMAP_PRESETS["MEDIUM"])
-    density = across / scene_size_m
-    if user.quality not in LIGHTMAP_PRESETS:
-        method, samples = "gather", user.gather_samples_per_edge
-        density = user.texels_per_metre or density
-    return LightmapSettings(indirect=method, gather_samples_per_edge=samples, seed=user.seed), density
+    density = LIGHTMAP_TEXELS_ACROSS.get(user.quality, LIGHTMAP_TEXELS_ACROSS["MEDIUM"]) / scene_size_m
+    if user.quality in LIGHTMAP_TEXELS_ACROSS:
+        return LightmapSettings(indirect="interpolate", seed=user.seed), density
+    return LightmapSettings(indirect=user.lightmap_indirect, gather_samples_per_edge=user.gather_samples_per_edge,
+                            seed=user.seed), user.texels_per_metre or density

@@ -7,9 +7,9 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, Po
 from .presets import UserSettings
 
 QUALITY_ITEMS = [
-    ("DRAFT", "Draft", "16 elements across the scene, no adaptive pass, 5% residual: seconds"),
-    ("MEDIUM", "Medium", "40 elements across the scene, one adaptive pass, 1% residual"),
-    ("HIGH", "High", "80 elements across the scene, two adaptive passes, 0.2% residual"),
+    ("DRAFT", "Draft", "16 elements and 128 lightmap texels across the scene, no adaptive pass: seconds"),
+    ("MEDIUM", "Medium", "32 elements and 256 lightmap texels across the scene, one adaptive pass"),
+    ("HIGH", "High", "48 elements and 512 lightmap texels across the scene, one adaptive pass, more shadow rays"),
     ("CUSTOM", "Custom", "Use the settings below"),
 ]
 
@@ -50,6 +50,11 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
     lightmap_padding: IntProperty(name="Padding", default=4, min=1, max=32,
                                   description="Texels between charts, filled by dilation so filtering and "
                                               "mipmaps do not bleed")
+    lightmap_indirect: EnumProperty(name="Indirect Light", default="interpolate", items=[
+        ("interpolate", "Interpolate", "From the radiosity elements' corners: smooth, fast (what the presets use)"),
+        ("gather", "Final Gather", "Rays from each texel look up the radiosity solution: finer indirect detail, "
+                                   "some noise")],
+                                    description="How lightmap texels get indirect light (Custom quality)")
     gather_samples: IntProperty(name="Gather Samples", default=8, min=1, max=32,
                                 description="Final-gather rays per texel: this number squared (Custom quality)")
     lightmap_uv_map: StringProperty(name="UV Map", default="Lightmap",
@@ -71,7 +76,7 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
     def user_settings(self) -> UserSettings:
         return UserSettings(self.quality, self.element_size, self.patch_size, self.adaptive_passes, self.residual,
                             self.light_samples, self.form_factors, gather_samples_per_edge=self.gather_samples,
-                            texels_per_metre=self.texels_per_metre)
+                            texels_per_metre=self.texels_per_metre, lightmap_indirect=self.lightmap_indirect)
 
     def outputs(self):
         from .job import Outputs

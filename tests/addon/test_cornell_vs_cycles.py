@@ -2,7 +2,7 @@
 no Color, 1024 samples per vertex, 64 bounces: Cycles' default 4 diffuse bounces lose ~10% of the red light).
 
 Measured at Medium quality (bpy 5.2.3): per-surface means within 0-1% of Cycles on the six surfaces away from
-the light and 4% on the ceiling; relative RMSE over the vertices 4.1% on those six (walls 3.4-4.5%, floor 7.4%,
+the light and 4% on the ceiling; relative RMSE over the vertices 4.1% on those six (walls 3.4-4.5%, floor 7.3%,
 blocks 2.5-4.3%; Cycles' own noise included) and 22% on the ceiling, whose vertices on the rim of the light's
 opening sit 0.5 mm from the light's back face. The bounds leave room for Cycles' noise.
 """

@@ -32,6 +32,7 @@ def test_cli_lightmap_outputs_and_determinism(scene_file, tmp_path):
         assert entry["uv_map"] == "Lightmap" and entry["resolution"] == [64, 64]
         assert entry["image"] == str(files[0]) and entry["color_attribute"] == "Radiosity"
     assert filecmp.cmp(files[0], files[1], shallow=False)
+    assert report["lightmap"]["settings"]["indirect"] == "interpolate"  # every preset interpolates
     from radiosity_baker.core.image_file import read_image, srgb_encode
     exr, png = read_image(str(files[0]))[..., :3], read_image(report["objects"][0]["png"])[..., :3]
     assert png == pytest.approx(srgb_encode(np.clip(exr, 0.0, 1.0)), abs=1 / 255 + 2e-3)  # 8 bits, half floats
@@ -47,6 +48,15 @@ def test_cli_lightmap_outputs_and_determinism(scene_file, tmp_path):
     gltf = json.loads((tmp_path / "scene.gltf").read_text())
     floor_mesh = gltf["meshes"][next(n["mesh"] for n in gltf["nodes"] if n["name"] == "Floor")]
     assert all("TEXCOORD_1" in primitive["attributes"] for primitive in floor_mesh["primitives"])
+
+
+def test_custom_quality_chooses_a_final_gather(scene_file, tmp_path):
+    code, stderr = run_cli(scene_file, "-o", tmp_path / "out.blend", "--report", tmp_path / "report.json",
+                           "--quality", "custom", "--element-size", "0.5", "--target", "lightmap",
+                           "--resolution", "32", "--indirect", "gather", "--gather-samples", "3")
+    assert code == 0, stderr
+    settings = json.loads((tmp_path / "report.json").read_text())["lightmap"]["settings"]
+    assert settings["indirect"] == "gather" and settings["gather_samples_per_edge"] == 3
 
 
 def test_lightmap_name_clash_is_refused(scene_file, tmp_path):
