@@ -15,6 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .scene import SceneError, triangle_areas
+from .texels import rasterize
+
+OVERLAP_TOLERANCE = 0.01  # share of an object's texel centres that may fall on another object's
 
 
 @dataclass
@@ -128,3 +131,31 @@ def _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre) 
     offsets, page, width, height = pack_blocks(sizes, max_size)
     corner_uv = [(blocks[m].corner_texels + offset) / [width, height] for m, offset in zip(mesh_of_object, offsets)]
     return AtlasLayout(corner_uv, page, width, height, float(texels_per_metre))
+
+
+def overlapping_share(corner_uv: np.ndarray, width: int, height: int) -> float:
+    """The share of a UV map's area that lies on top of other faces of the same map (0 when no faces overlap; 0.5
+    for a mirrored copy on the same UVs): one minus the texel centres its faces cover over the texels their areas
+    add up to. Chart borders cost up to about one texel row per chart, so small shares are discretisation."""
+    texels = rasterize(corner_uv, width, height)
+    faces_texels = triangle_areas(np.pad(corner_uv, [(0, 0), (0, 0), (0, 1)])).sum() * width * height
+    return float(max(0.0, 1.0 - texels.centre_inside.sum() / max(faces_texels, 1e-12)))
+
+
+def pages_without_overlap(corner_uvs: list[np.ndarray], width: int, height: int,
+                          tolerance: float = OVERLAP_TOLERANCE) -> np.ndarray:
+    """Pages for objects baked on UV maps they already have ((t, 3, 2) UVs each, in [0, 1]): an object joins the
+    first page where the texel centres its triangles cover are free (up to ``tolerance`` of its own, for centres on
+    a shared chart border), else opens a new one; (n,) page per object. Linked duplicates, which share a UV map,
+    and objects unwrapped each onto the whole square thus get pages of their own."""
+    occupied: list[np.ndarray] = []
+    page = np.zeros(len(corner_uvs), dtype=np.int64)
+    for index, corner_uv in enumerate(corner_uvs):
+        texels = rasterize(corner_uv, width, height)
+        covered = texels.pixel[texels.centre_inside]
+        page[index] = next((number for number, taken in enumerate(occupied)
+                            if taken[covered].sum() <= tolerance * len(covered)), len(occupied))
+        if page[index] == len(occupied):
+            occupied.append(np.zeros(width * height, dtype=bool))
+        occupied[page[index]][covered] = True
+    return page

@@ -59,6 +59,8 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--gather-samples", type=int, default=8,
                         help="final-gather rays per texel: this squared (custom quality with --indirect gather)")
     parser.add_argument("--uv-map", default="Lightmap", help="name of the lightmap UV map to make")
+    parser.add_argument("--existing-uv-map", action="store_true",
+                        help="bake onto the UV map --uv-map names, which the objects already have (not changed)")
     parser.add_argument("--lightmap-image", default="Radiosity Lightmap", help="lightmap image and file name")
     parser.add_argument("--lightmap-dir", metavar="DIR",
                         help="folder for the lightmap .exr (default: the folder of OUT.blend)")
@@ -108,7 +110,8 @@ def _bake(args) -> dict:
                         args.residual, args.light_samples, args.form_factors, args.seed, args.gather_samples,
                         args.texels_per_meter or 0.0, args.indirect)
     lightmap = LightmapOptions(args.uv_map, args.lightmap_image, args.texels_per_meter, args.resolution,
-                               args.padding, args.max_size, half=not args.float, png_exposure=args.png_exposure)
+                               args.padding, args.max_size, half=not args.float, png_exposure=args.png_exposure,
+                               existing_uv_map=args.existing_uv_map)
     outputs = Outputs(args.target.upper(), args.attribute, args.radiosity_mesh, lightmap, folder)
     started = time.perf_counter()
     try:

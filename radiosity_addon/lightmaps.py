@@ -7,7 +7,8 @@ UV map but get their own part of the atlas: the first user's part is what the UV
 ``obj["radiosity_lightmap_offset"]``, the UV offset of their copy. Each atlas page is an OpenEXR file (saved next
 to the .blend, or where asked, or packed into an unsaved .blend) loaded as a Blender image: the first page takes
 the image name, page k the name followed by " k"; when there are several, every object carries
-``obj["radiosity_lightmap_page"]``, the page its UVs refer to.
+``obj["radiosity_lightmap_page"]``, the page its UVs refer to. With ``existing_uv_map`` the objects' own UV map
+is baked as it is, each object on the first page where its texels are free.
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ import bpy
 import numpy as np
 
 from ..core import SceneError
-from ..core.atlas import AtlasLayout, layout_atlas
+from ..core.atlas import AtlasLayout, layout_atlas, overlapping_share, pages_without_overlap
 from ..core.scene import triangle_areas
 from .export import Export, ExportedObject, loop_triangles, world_positions
 
@@ -28,6 +29,8 @@ OWNED_UV = "radiosity_lightmap_uv"
 OWNED_IMAGE = "radiosity_lightmap"
 OFFSET_PROPERTY = "radiosity_lightmap_offset"
 PAGE_PROPERTY = "radiosity_lightmap_page"
+SELF_OVERLAP_WARNING = 0.1  # overlapping share of an existing UV map worth a warning (above chart-border slack)
+NOTHING_TO_BAKE = "Nothing to bake into a lightmap: no visible mesh object is set to 'Bake'."
 
 
 @dataclass(frozen=True)
@@ -36,7 +39,8 @@ class LightmapOptions:
     resolution (one square atlas) sets the density (neither: the preset's); padding: texels between charts;
     max_size: texels a side of an atlas page (more pages when the density needs them); half: 16-bit float EXR
     (else 32-bit); png_exposure: also write an 8-bit sRGB PNG of the light x 2^stops
-    (core.image_file.write_png's documented encoding) for engines that want low dynamic range."""
+    (core.image_file.write_png's documented encoding) for engines that want low dynamic range; existing_uv_map:
+    bake onto the UV map ``uv_map`` the objects already have instead of making one."""
 
     uv_map: str = "Lightmap"
     image_name: str = "Radiosity Lightmap"
@@ -46,6 +50,7 @@ class LightmapOptions:
     max_size: int = 4096
     half: bool = True
     png_exposure: float | None = None
+    existing_uv_map: bool = False
 
 
 @dataclass
@@ -78,14 +83,15 @@ def plan_lightmap(context, export: Export, options: LightmapOptions, default_tex
     mesh is unwrapped and the UV map reaches the rendered mesh through the modifiers, as any UV map does (what
     Cycles bakes too). Objects whose modifiers repeat the UVs (Array, Mirror, Solidify), drop or squash them would
     share or lack texels: they get no lightmap, with a warning naming them."""
-    objects = _lightmap_objects(export, options)
     density = options.texels_per_metre if options.texels_per_metre or options.resolution else \
         default_texels_per_metre
+    if options.existing_uv_map:
+        return _plan_on_existing_uv_map(context, export, options, density)
+    objects = _lightmap_objects(export, options)
     warnings = []
     while True:
         if not objects:
-            raise SceneError(" ".join(["Nothing to bake into a lightmap: no visible mesh object is set to 'Bake'."] +
-                                      warnings))
+            raise SceneError(" ".join([NOTHING_TO_BAKE] + warnings))
         layout, mesh_uvs, uv_offsets = _unwrap(export, objects, options, density)
         rendered_uv = _rendered_uvs(context, objects, layout, mesh_uvs, uv_offsets, options.uv_map)
         problems = _uv_problems(export, objects, layout, mesh_uvs, rendered_uv)
@@ -94,14 +100,65 @@ def plan_lightmap(context, export: Export, options: LightmapOptions, default_tex
         warnings += [f"Object '{objects[index].name}' gets no lightmap: {problem}; apply them, or bake vertex "
                      "colours." for index, problem in problems.items()]
         objects = [item for index, item in enumerate(objects) if index not in problems]
+    return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), options,
+                                 mesh_uvs, uv_offsets, warnings))
+
+
+def _plan_on_existing_uv_map(context, export: Export, options: LightmapOptions, density: float) -> LightmapPlan:
+    """The plan for baking onto a UV map the objects already have, as their modifiers carry it to the rendered
+    mesh; the UV map is read, never changed. Objects whose UVs would share texels (linked duplicates, meshes each
+    unwrapped onto the whole square) get separate pages; all pages have the resolution asked for, or the size the
+    density needs for the object that needs most (at most the maximum size)."""
+    objects = [item for item in export.objects if item.writable]
+    if not objects:
+        raise SceneError(NOTHING_TO_BAKE)
+    lacking = [item.name for item in objects if options.uv_map not in bpy.data.meshes[item.mesh_name].uv_layers]
+    if lacking:
+        raise SceneError(f"Object(s) {', '.join(map(repr, lacking))} have no UV map '{options.uv_map}' to bake the "
+                         "lightmap onto; add one, or let the bake make a new UV map.")
+    depsgraph = context.evaluated_depsgraph_get()
+    rendered_uv = [_evaluated_uvs(depsgraph, item, options.uv_map) for item in objects]
+    dropped = [item.name for item, uv in zip(objects, rendered_uv) if uv is None]
+    if dropped:
+        raise SceneError(f"The modifiers of {', '.join(map(repr, dropped))} do not keep the UV map "
+                         f"'{options.uv_map}'; apply them, or let the bake make a new UV map.")
+    areas_m2 = np.array([_area_m2(export, item) * _lightmap_scale(item) ** 2 for item in objects])
+    areas_uv = np.array([max(_uv_area(uv), 1e-12) for uv in rendered_uv])
+    side = options.resolution or int(np.clip(np.ceil(density * np.sqrt(areas_m2 / areas_uv).max()), 8,
+                                             options.max_size))
+    page = pages_without_overlap(rendered_uv, side, side)
+    layout = AtlasLayout(rendered_uv, page, side, side, float(side * np.sqrt(areas_uv.sum() / areas_m2.sum())))
+    warnings = _existing_uv_warnings(objects, rendered_uv, options.uv_map, side)
+    return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), options,
+                                 {}, [None] * len(objects), warnings))
+
+
+def _existing_uv_warnings(objects, rendered_uv, uv_map: str, side: int) -> list[str]:
+    """What a user's own UV map does that costs texels: faces outside the 0-1 square, faces on top of others."""
+    warnings = []
+    for item, corner_uv in zip(objects, rendered_uv):
+        if corner_uv.min() < -1e-6 or corner_uv.max() > 1.0 + 1e-6:
+            warnings.append(f"Object '{item.name}': its UV map '{uv_map}' reaches outside the 0-1 square; faces "
+                            "there get no lightmap texels.")
+        share = overlapping_share(corner_uv, side, side)
+        if share > SELF_OVERLAP_WARNING:
+            warnings.append(f"Object '{item.name}': faces of its UV map '{uv_map}' lie on top of each other "
+                            f"({share:.0%} of its UV area), so they share texels.")
+    return warnings
+
+
+def _page_triangles(export: Export, objects, rendered_uv, layout: AtlasLayout) -> list:
+    """Per page, the solved scene triangles it holds and their (t, 3, 2) UVs."""
     kept = export.scene_index_of_input()
     pages = [([], []) for _ in range(layout.page_count)]
     for item, corner_uv, page in zip(objects, rendered_uv, layout.page):
         scene_triangle = kept[item.first_triangle + np.arange(item.triangle_count)]
         pages[page][0].append(scene_triangle[scene_triangle >= 0])
         pages[page][1].append(corner_uv[scene_triangle >= 0])
-    plan = LightmapPlan(objects, layout, [(np.concatenate(t), np.concatenate(u)) for t, u in pages], options,
-                        mesh_uvs, uv_offsets, warnings)
+    return [(np.concatenate(triangles), np.concatenate(uvs)) for triangles, uvs in pages]
+
+
+def _checked(plan: LightmapPlan) -> LightmapPlan:
     for name in plan.image_names:
         _check_image_name_free(name)
     return plan
@@ -171,20 +228,25 @@ def _rendered_uvs(context, objects, layout: AtlasLayout, mesh_uvs, uv_offsets, u
     with _uv_maps_set(meshes, uv_map, mesh_uvs):
         depsgraph = context.evaluated_depsgraph_get()
         for index in changed:
-            item = objects[index]
-            evaluated = bpy.data.objects[item.name].evaluated_get(depsgraph)
-            mesh = evaluated.to_mesh()
-            try:
-                layer = mesh.uv_layers.get(uv_map)
-                if layer is None or len(mesh.loops) <= item.corner_loops.max():
-                    continue
-                uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
-                layer.data.foreach_get("uv", uv)
-            finally:
-                evaluated.to_mesh_clear()
+            corner_uv = _evaluated_uvs(depsgraph, objects[index], uv_map)
             offset = uv_offsets[index] if uv_offsets[index] is not None else 0.0
-            baked[index] = uv.reshape(-1, 2).astype(np.float64)[item.corner_loops] + offset
+            baked[index] = None if corner_uv is None else corner_uv + offset
     return baked
+
+
+def _evaluated_uvs(depsgraph, item: ExportedObject, uv_map: str) -> np.ndarray | None:
+    """(t, 3, 2) UVs of the object's rendered triangles in the UV map as its modifiers leave it (None: dropped)."""
+    evaluated = bpy.data.objects[item.name].evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        layer = mesh.uv_layers.get(uv_map)
+        if layer is None or len(mesh.loops) <= item.corner_loops.max():
+            return None
+        uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+        layer.data.foreach_get("uv", uv)
+    finally:
+        evaluated.to_mesh_clear()
+    return uv.reshape(-1, 2).astype(np.float64)[item.corner_loops]
 
 
 @contextmanager

@@ -28,7 +28,8 @@ class RENDER_PT_radiosity(bpy.types.Panel):
         if settings.target != "VERTEX_COLORS":
             box = layout.column(heading="Lightmap")
             for name in ("texels_per_metre", "lightmap_resolution", "lightmap_max_size", "lightmap_padding",
-                         "lightmap_uv_map", "lightmap_image", "lightmap_folder", "lightmap_half", "lightmap_png"):
+                         "lightmap_uv_map", "lightmap_existing_uv", "lightmap_image", "lightmap_folder",
+                         "lightmap_half", "lightmap_png"):
                 box.prop(settings, name)
             exposure = box.column()
             exposure.enabled = settings.lightmap_png

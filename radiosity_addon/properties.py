@@ -58,8 +58,11 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
     gather_samples: IntProperty(name="Gather Samples", default=8, min=1, max=32,
                                 description="Final-gather rays per texel: this number squared (Custom quality)")
     lightmap_uv_map: StringProperty(name="UV Map", default="Lightmap",
-                                    description="Name of the UV map the bake makes (existing UV maps are never "
-                                                "changed)")
+                                    description="Name of the UV map the bake makes, or reads with Use Existing UV "
+                                                "Map (existing UV maps are never changed)")
+    lightmap_existing_uv: BoolProperty(name="Use Existing UV Map", default=False,
+                                       description="Bake onto the UV map named above, which the objects already "
+                                                   "have (it is read, not changed), instead of making one")
     lightmap_image: StringProperty(name="Image", default="Radiosity Lightmap",
                                    description="Name of the lightmap image (and of its .exr file)")
     lightmap_folder: StringProperty(name="Folder", default="//", subtype="DIR_PATH",
@@ -84,7 +87,8 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
         options = LightmapOptions(self.lightmap_uv_map, self.lightmap_image, self.texels_per_metre or None,
                                   self.lightmap_resolution or None, self.lightmap_padding, self.lightmap_max_size,
                                   half=self.lightmap_half,
-                                  png_exposure=self.lightmap_png_exposure if self.lightmap_png else None)
+                                  png_exposure=self.lightmap_png_exposure if self.lightmap_png else None,
+                                  existing_uv_map=self.lightmap_existing_uv)
         return Outputs(self.target, self.attribute_name, self.create_radiosity_mesh, options,
                        lightmap_folder(self.lightmap_folder))
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from core import BakeSettings, Material, Scene, SceneError, SunLight, World, bake
-from core.atlas import layout_atlas, pack_blocks
+from core.atlas import layout_atlas, pack_blocks, pages_without_overlap
 from core.lightmap import LightmapSettings, bake_lightmap, dilate
 from core.scene import triangle_unit_normals
 from core.texels import rasterize
@@ -49,6 +49,17 @@ def test_shelf_packing_never_overlaps_and_opens_pages_when_full(max_size, least_
     for (x, y), (w, h), p in zip(offsets, sizes, page):
         canvas[p, y:y + h, x:x + w] += 1
     assert canvas.max() == 1
+
+
+def test_objects_on_existing_uv_maps_share_a_page_only_where_their_texels_are_free():
+    """First fit by covered texel centres: the left half of the square opens page 0; the whole square overlaps it
+    and opens page 1; the right half fits page 0 beside the left one (they touch along u = 0.5); a second whole
+    square opens page 2; a quarter in the lower left corner finds it taken on every page and opens page 3."""
+    def rectangle(u0, v0, u1, v1):
+        return np.array([[[u0, v0], [u1, v0], [u1, v1]], [[u0, v0], [u1, v1], [u0, v1]]], dtype=float)
+    uvs = [rectangle(0, 0, 0.5, 1), rectangle(0, 0, 1, 1), rectangle(0.5, 0, 1, 1), rectangle(0, 0, 1, 1),
+           rectangle(0, 0, 0.25, 0.25)]
+    assert pages_without_overlap(uvs, 16, 16).tolist() == [0, 1, 0, 2, 3]
 
 
 def test_a_block_over_the_maximum_size_is_refused():

@@ -50,13 +50,20 @@ def test_cli_lightmap_outputs_and_determinism(scene_file, tmp_path):
     assert all("TEXCOORD_1" in primitive["attributes"] for primitive in floor_mesh["primitives"])
 
 
-def test_custom_quality_chooses_a_final_gather(scene_file, tmp_path):
+def test_cli_custom_gather_onto_an_existing_uv_map(scene_file, tmp_path):
+    """--quality custom --indirect gather --gather-samples 3 --existing-uv-map --uv-map UVMap: the report says so,
+    and the floor and roof (each unwrapped onto the whole square) get a page each on their own UV map."""
     code, stderr = run_cli(scene_file, "-o", tmp_path / "out.blend", "--report", tmp_path / "report.json",
                            "--quality", "custom", "--element-size", "0.5", "--target", "lightmap",
-                           "--resolution", "32", "--indirect", "gather", "--gather-samples", "3")
+                           "--resolution", "32", "--indirect", "gather", "--gather-samples", "3",
+                           "--existing-uv-map", "--uv-map", "UVMap")
     assert code == 0, stderr
-    settings = json.loads((tmp_path / "report.json").read_text())["lightmap"]["settings"]
+    report = json.loads((tmp_path / "report.json").read_text())
+    settings = report["lightmap"]["settings"]
     assert settings["indirect"] == "gather" and settings["gather_samples_per_edge"] == 3
+    assert report["lightmap"]["pages"] == 2 and {entry["uv_map"] for entry in report["objects"]} == {"UVMap"}
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "out.blend"))
+    assert [uv.name for uv in bpy.data.objects["Floor"].data.uv_layers] == ["UVMap"]
 
 
 def test_lightmap_name_clash_is_refused(scene_file, tmp_path):
@@ -251,3 +258,55 @@ def test_objects_whose_modifiers_change_the_topology(empty_scene, extension, tmp
         texels = rasterize(corner_uv, width, height)
         assert len(texels.pixel) > 0.9 * 32 ** 2
         assert light.reshape(-1, 3)[texels.pixel] == pytest.approx(expected, rel=0.01, abs=1e-3)
+
+
+def test_bake_onto_an_existing_uv_map(empty_scene, extension, tmp_path):
+    """Use Existing UV Map: the bake reads each object's own UV map and changes no UV map. Two tiles and a linked
+    duplicate, each unwrapped onto the whole square, would share texels, so each gets its own page; the tile in
+    a shadow-only roof's shadow reads black, the others 3 / pi = 0.9549 (within 1%) under a sun of strength 3.
+    A tile whose four faces each cover the whole square gets a page and a warning that 75% of its UV area lies on
+    top of other faces. An object without that UV map is refused by name."""
+    from radiosity_baker.core import SceneError
+    from radiosity_baker.core.image_file import read_image
+    from radiosity_baker.core.texels import rasterize
+    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
+    from radiosity_baker.radiosity_addon.presets import UserSettings
+    job = extension.radiosity_addon.job
+    shaded = grid_plane("Shaded", 1.0, 2)
+    twin = shaded.copy()
+    twin.name, twin.location = "Twin", (3.0, 0.0, 0.0)
+    empty_scene.collection.objects.link(twin)
+    other = grid_plane("Other", 1.0, 3, location=(0.0, 3.0, 0.0))
+    folded = grid_plane("Folded", 1.0, 2, location=(3.0, 3.0, 0.0))
+    uv = folded.data.uv_layers["UVMap"].data
+    for face in folded.data.polygons:
+        centre = np.mean([uv[loop].uv for loop in face.loop_indices], axis=0)
+        for loop in face.loop_indices:
+            uv[loop].uv = 2.0 * np.array(uv[loop].uv) - np.floor(2.0 * centre)
+    grid_plane("Roof", 2.0, 1, location=(0.0, 0.0, 1.0)).radiosity.mode = "SHADOW_ONLY"
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0)
+    before = {obj.name: triangle_uvs(obj.data, "UVMap") for obj in (shaded, other)}
+    options = LightmapOptions("UVMap", texels_per_metre=32, existing_uv_map=True)
+    bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs("LIGHTMAP", lightmap=options,
+                                                                      lightmap_folder=str(tmp_path)))
+    job.solve(bake, lambda fraction, message: None, lambda: False)
+    report = job.apply(bake)
+    for obj in (shaded, other):
+        assert [layer.name for layer in obj.data.uv_layers] == ["UVMap"]
+        assert np.array_equal(triangle_uvs(obj.data, "UVMap"), before[obj.name])
+    pages = {obj.name: obj["radiosity_lightmap_page"] for obj in (shaded, twin, other, folded)}
+    assert sorted(pages.values()) == [0, 1, 2, 3]
+    assert [warning for warning in report["warnings"] if "lie on top" in warning] == [
+        "Object 'Folded': faces of its UV map 'UVMap' lie on top of each other (75% of its UV area), so they share "
+        "texels."]
+    for obj, expected in ((shaded, 0.0), (twin, 3.0 / np.pi), (other, 3.0 / np.pi)):
+        entry = next(entry for entry in report["objects"] if entry["name"] == obj.name)
+        assert entry["uv_map"] == "UVMap" and entry["resolution"] == [32, 32]
+        light = read_image(entry["image"])
+        texels = rasterize(triangle_uvs(obj.data, "UVMap"), 32, 32)
+        assert len(texels.pixel) == 32 ** 2
+        assert light.reshape(-1, 3)[texels.pixel] == pytest.approx(expected, rel=0.01, abs=1e-3), obj.name
+    other.data.uv_layers.remove(other.data.uv_layers["UVMap"])
+    with pytest.raises(SceneError, match="'Other' have no UV map 'UVMap'"):
+        job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs("LIGHTMAP", lightmap=options,
+                                                                   lightmap_folder=str(tmp_path)))
