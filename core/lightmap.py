@@ -18,6 +18,9 @@ from .texels import (Texels, face_to_face_contact, inset, inside_closed_geometry
                      sample_points, subtexel_barycentrics)
 
 INDIRECT_METHODS = ("gather", "interpolate")
+# Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
+# texel at High), and lets progress and Esc through between steps.
+TEXELS_PER_CHUNK = 8192
 
 
 @dataclass(frozen=True)
@@ -73,19 +76,14 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     sub_points, sub_bary = _subtexel_points(scene.triangles[tri], texels, corner_uv,
                                             settings.subtexel_samples_per_edge, points, moved, 4 * offset)
     timer.lap("texels")
-    if cancelled():
-        raise BakeCancelled("Bake cancelled before lighting the lightmap.")
-    progress(0.0, f"Direct light on {len(points)} texels")
-    light = _direct_light(solution, sub_points, normals, tri, texels.barycentric, settings.subtexel_samples_per_edge)
-    timer.lap("direct")
-    if settings.indirect == "gather":
-        light = _footprint_mean(scene, light, tri, sub_bary) + final_gather(
-            solution, direct.caster, sub_points, normals, settings.gather_samples_per_edge, offset, settings.seed,
-            cancelled, progress)
-    else:
-        light = _footprint_mean(scene, light + _interpolated_indirect(solution, tri, sub_bary, sub_points, normals),
-                                tri, sub_bary)
-    timer.lap("indirect")
+    light = np.zeros((len(points), 3))
+    for start in range(0, len(points), TEXELS_PER_CHUNK):
+        if cancelled():
+            raise BakeCancelled("Bake cancelled while lighting the lightmap.")
+        chunk = slice(start, min(start + TEXELS_PER_CHUNK, len(points)))
+        light[chunk] = _light_chunk(solution, settings, sub_points[chunk], sub_bary[chunk], normals[chunk],
+                                    tri[chunk], texels.barycentric[chunk], start, timer)
+        progress(chunk.stop / len(points), f"Lightmap: {chunk.stop} of {len(points)} texels lit")
     light = solution.black_stays_black(light, tri)
     # Resting on another face, no light gets there; texels pushed out to the visible floor beside a box keep that
     # light, so bilinear filtering shows no dark rim around the box.
@@ -99,6 +97,24 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     moved_texels[texels.pixel[moved]] = True
     return Lightmap(image.astype(np.float32), covered.reshape(height, width), moved_texels.reshape(height, width),
                     len(texels.pixel), timer.laps)
+
+
+def _light_chunk(solution, settings, sub_points, sub_bary, normals, tri, barycentric, first_texel, timer):
+    """(c, 3) direct + indirect light of c consecutive texels, the first being texel ``first_texel`` of the page
+    (the shadow and gather rays are seeded from there, so no two steps repeat each other's samples)."""
+    direct = _direct_light(solution, sub_points, normals, tri, barycentric, settings.subtexel_samples_per_edge,
+                           first_texel)
+    timer.lap("direct")
+    scene = solution.scene
+    if settings.indirect == "gather":
+        light = _footprint_mean(scene, direct, tri, sub_bary) + final_gather(
+            solution, solution.direct.caster, sub_points, normals, settings.gather_samples_per_edge,
+            solution.direct.offset_m, settings.seed + first_texel)
+    else:
+        light = _footprint_mean(scene, direct + _interpolated_indirect(solution, tri, sub_bary, sub_points, normals),
+                                tri, sub_bary)
+    timer.lap("indirect")
+    return light
 
 
 def _interpolated_indirect(solution, tri, sub_bary, sub_points, normals) -> np.ndarray:
@@ -137,12 +153,12 @@ def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, p
     return sub_points, bary
 
 
-def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge) -> np.ndarray:
+def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge, first_texel) -> np.ndarray:
     """(m, q, 3) direct light at the sub-texel points, with 1/k the shadow rays per edge at each (rounded up)."""
     q = sub_points.shape[1]
     light_samples = -(-solution.direct.samples_per_edge // samples_per_edge)
     light = solution.direct_light(sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0), np.repeat(tri, q),
-                                  np.repeat(barycentric, q, axis=0), light_samples)
+                                  np.repeat(barycentric, q, axis=0), light_samples, seed_offset=q * first_texel)
     return light.reshape(-1, q, 3)
 
 

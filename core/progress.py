@@ -26,7 +26,8 @@ def never_cancelled() -> bool:
 
 
 class Timer:
-    """Seconds per named phase: ``lap(name)`` records the time since the previous lap (or the start)."""
+    """Seconds per named phase: ``lap(name)`` adds the time since the previous lap (or the start) to that phase,
+    so a phase run in parts (chunk after chunk) sums its parts."""
 
     def __init__(self):
         self.laps: dict[str, float] = {}
@@ -34,5 +35,5 @@ class Timer:
 
     def lap(self, name: str) -> None:
         now = time.perf_counter()
-        self.laps[name] = now - self._last
+        self.laps[name] = self.laps.get(name, 0.0) + now - self._last
         self._last = now

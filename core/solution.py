@@ -126,13 +126,15 @@ class Solution:
         return np.where(reflectance == 0, 0.0, light)
 
     def direct_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
-                     barycentric: np.ndarray, samples_per_edge: int | None = None) -> np.ndarray:
+                     barycentric: np.ndarray, samples_per_edge: int | None = None,
+                     seed_offset: int = 0) -> np.ndarray:
         """(m, 3) direct light (irradiance / pi) at points by shadow rays; the point's own patch (found from its
-        triangle and barycentrics) is not counted as an emitter. NaN on triangles that were not solved."""
+        triangle and barycentrics) is not counted as an emitter. NaN on triangles that were not solved.
+        ``seed_offset`` shifts the shadow rays' seed, for points lit in several calls."""
         solved, leaf, _ = self._leaves(scene_triangle, barycentric)
         out = np.full((len(points), 3), np.nan)
         out[solved] = self.direct.irradiance(points[solved], normals[solved], self.state.elements.patch[leaf],
-                                             samples_per_edge) / np.pi
+                                             samples_per_edge, seed_offset) / np.pi
         return out
 
     def indirect_light(self, scene_triangle: np.ndarray, barycentric: np.ndarray,

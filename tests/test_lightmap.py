@@ -5,7 +5,9 @@ import pytest
 
 from core import BakeSettings, Material, Scene, SceneError, SunLight, World, bake
 from core.atlas import layout_atlas, pack_blocks, pages_without_overlap
+import core.lightmap
 from core.lightmap import LightmapSettings, bake_lightmap, dilate
+from core.progress import BakeCancelled
 from core.scene import triangle_unit_normals
 from core.texels import rasterize
 from shapes import box_faces, quad
@@ -16,12 +18,12 @@ def as_mesh(triangles):
     return positions, np.arange(len(positions)).reshape(-1, 3)
 
 
-def lightmap_of(scene, parts, settings=LightmapSettings(), texels_per_metre=16.0, bake_settings=None):
+def lightmap_of(scene, parts, settings=LightmapSettings(), texels_per_metre=16.0, bake_settings=None, **callbacks):
     solution = bake(scene, bake_settings or BakeSettings(patch_size_m=1.0, element_size_m=0.5))
     layout = layout_atlas([as_mesh(p) for p in parts], list(range(len(parts))), 2, 4096, texels_per_metre)
     corner_uv = np.concatenate(layout.corner_uv)
     result = bake_lightmap(solution, np.arange(len(scene.triangles)), corner_uv, layout.width, layout.height,
-                           settings)
+                           settings, **callbacks)
     return result, layout, corner_uv
 
 
@@ -90,6 +92,22 @@ def test_sunlit_plane_is_exact_and_dilated():
     assert result.light[result.covered] == pytest.approx(expected, rel=1e-6)
     grown = dilate(result.light, result.covered, 1)[1]
     assert grown.sum() > result.covered.sum()
+
+
+def test_a_page_is_lit_in_steps_with_progress_and_esc_between_them(monkeypatch):
+    """Lit 100 texels per step, the sunlit plane still holds E cos / pi in every texel (no step is skipped or
+    lit twice); progress rises to 1, and a cancel between steps stops the bake."""
+    monkeypatch.setattr(core.lightmap, "TEXELS_PER_CHUNK", 100)
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    sun = SunLight("sun", (0.0, -np.sin(np.radians(30)), -np.cos(np.radians(30))), strength_w_m2=3.0)
+    scene = Scene(floor, np.zeros(2, int), [Material("grey", (0.5,) * 3)], lights=[sun])
+    fractions = []
+    result, _, _ = lightmap_of(scene, [floor], progress=lambda fraction, _: fractions.append(fraction))
+    assert result.light[result.covered] == pytest.approx(3.0 * np.cos(np.radians(30)) / np.pi, rel=1e-6)
+    assert len(fractions) == -(-result.texel_count // 100) and np.all(np.diff(fractions) > 0) and fractions[-1] == 1
+    calls = []
+    with pytest.raises(BakeCancelled):
+        lightmap_of(scene, [floor], cancelled=lambda: calls.append(1) or len(calls) > 3)
 
 
 def test_no_light_leaks_under_a_block_on_the_floor():
