@@ -28,13 +28,13 @@ class DirectLighting:
         self._rows = {samples_per_edge: RayCastRows(caster, patches, samples_per_edge, offset_m)}
 
     def irradiance(self, points: np.ndarray, normals: np.ndarray, own_patch: np.ndarray | None = None,
-                   samples_per_edge: int | None = None, seed_offset: int = 0) -> np.ndarray:
+                   samples_per_edge: int | None = None, seed_offset: int = 0, lift=None) -> np.ndarray:
         """(m, 3) direct irradiance at points with unit normals; ``own_patch`` (m,) excludes each point's patch;
         ``samples_per_edge`` overrides the shadow-ray count (s^2 per light and emitter); ``seed_offset`` is added
-        to the bake's seed."""
+        to the bake's seed; ``lift`` (core.terminator.ShadowLift) as in core.lights.direct_irradiance."""
         samples = samples_per_edge or self.samples_per_edge
         total = direct_irradiance(self.scene, self.caster, points, normals, self.offset_m, samples,
-                                  self.seed + seed_offset)
+                                  self.seed + seed_offset, lift)
         if samples not in self._rows:
             self._rows[samples] = RayCastRows(self.caster, self.patches, samples, self.offset_m)
         rows = self._rows[samples]

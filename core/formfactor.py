@@ -80,18 +80,23 @@ def triangle_sample_barycentrics(samples_per_edge: int) -> np.ndarray:
 
 
 def visible_fraction(caster: RayCaster, points: np.ndarray, normals: np.ndarray, targets: np.ndarray,
-                     target_normals: np.ndarray, offset_m: float, target_offset_m: float) -> np.ndarray:
+                     target_normals: np.ndarray, offset_m: float, target_offset_m: float,
+                     lift=None) -> np.ndarray:
     """Visible share of a source seen from each receiver point, by shadow rays to stratified source points.
 
     points, normals: (m, 3) receivers; targets: (m, s, 3) points on each source with (m, 3) source normals.
     Each sample is weighted by the unoccluded kernel cos(theta_r) cos(theta_s) / r^2, so a fully visible or
     fully hidden source is exact and a partly hidden one is weighted as the point-to-area integral.
     Receivers are lifted by ``offset_m`` along their normal and targets by ``target_offset_m`` towards the
-    receiver, so no surface shadows itself.
+    receiver, so no surface shadows itself. ``lift`` (core.terminator.ShadowLift, optional) starts grazing rays
+    from smooth-shaded receivers on their smooth surface.
     """
     facing = np.sign(np.einsum("msk,mk->ms", points[:, None, :] - targets, target_normals))
     targets = targets + (target_offset_m * facing)[..., None] * target_normals[:, None, :]
     origins = np.broadcast_to((points + offset_m * normals)[:, None, :], targets.shape)
+    if lift is not None:
+        delta = targets - origins
+        origins = lift.origins(origins, delta / np.maximum(np.linalg.norm(delta, axis=2), _TINY)[..., None])
     delta = targets - origins
     distance = np.maximum(np.linalg.norm(delta, axis=2), _TINY)
     direction = delta / distance[..., None]

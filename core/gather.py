@@ -8,7 +8,8 @@ With cosine-weighted directions (pdf cos(theta) / pi) the indirect irradiance is
 
 where B_r = rho H is the reflected radiosity at the hit (a diffuse surface's radiance is B / pi). Emission and
 the world are left out: core.direct adds them exactly, with shadow rays. Back faces and unsolved ("shadow only")
-surfaces return nothing. Directions are stratified (s x s jittered cells, Malley's method) with a seeded shift
+surfaces return nothing, and so do directions below the face's own plane when the cosine lobe is turned by a
+shading normal (Cycles' diffuse BSDF gives them no weight). Directions are stratified (s x s jittered cells, Malley's method) with a seeded shift
 per point, so the result is deterministic.
 """
 from __future__ import annotations
@@ -16,7 +17,6 @@ from __future__ import annotations
 import numpy as np
 
 from .formfactor import tangent_frames
-from .progress import BakeCancelled, never_cancelled
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 from .scene import triangle_unit_normals
@@ -25,24 +25,22 @@ RAYS_PER_CHUNK = 1 << 20
 
 
 def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.ndarray, samples_per_edge: int,
-                 offset_m: float, seed: int, cancelled=never_cancelled, progress=None) -> np.ndarray:
+                 offset_m: float, seed: int, face_normals: np.ndarray | None = None) -> np.ndarray:
     """(m, 3) indirect light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by its
-    rays) with (m, 3) unit normals, from s^2 gather rays each."""
+    rays) with (m, 3) unit (shading) normals, from s^2 gather rays each; ``face_normals`` (m, 3), where they
+    differ from the shading normals, cut off the directions below the face."""
     rays = samples_per_edge ** 2
     step = max(1, RAYS_PER_CHUNK // rays)
+    faces = normals if face_normals is None else face_normals
     light = np.zeros((len(points), 3))
-    for start in range(0, len(points), step):
-        if cancelled():
-            raise BakeCancelled("Bake cancelled during the final gather.")
+    for start in range(0, len(points), step):  # bounded memory: at most RAYS_PER_CHUNK rays at once
         stop = min(start + step, len(points))
         light[start:stop] = _gather_chunk(solution, caster, points[start:stop], normals[start:stop],
-                                          samples_per_edge, offset_m, seed + start)
-        if progress is not None:
-            progress(stop / len(points), f"Final gather: {stop} of {len(points)} texels")
+                                          faces[start:stop], samples_per_edge, offset_m, seed + start)
     return light
 
 
-def _gather_chunk(solution, caster, points, normals, samples_per_edge, offset_m, seed):
+def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_edge, offset_m, seed):
     count, rays = len(points), samples_per_edge ** 2
     local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
     directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals)).reshape(-1, 3)
@@ -50,7 +48,8 @@ def _gather_chunk(solution, caster, points, normals, samples_per_edge, offset_m,
     origins = (points[:, which, :] + offset_m * normals[:, None, :]).reshape(-1, 3)
     hit, bary = caster.first_hit(origins, directions)
     triangles = solution.scene.triangles
-    front = hit >= 0
+    above = np.einsum("mrk,mk->mr", directions.reshape(count, rays, 3), face_normals).ravel() > 0
+    front = (hit >= 0) & above
     front[front] = (triangle_unit_normals(triangles[hit[front]]) * directions[front]).sum(axis=1) < 0
     radiosity = np.zeros((len(hit), 3))
     radiosity[front] = np.nan_to_num(solution.reflected_radiosity(hit[front], bary[front]))

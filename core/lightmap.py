@@ -101,15 +101,19 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
 
 def _light_chunk(solution, settings, sub_points, sub_bary, normals, tri, barycentric, first_texel, timer):
     """(c, 3) direct + indirect light of c consecutive texels, the first being texel ``first_texel`` of the page
-    (the shadow and gather rays are seeded from there, so no two steps repeat each other's samples)."""
-    direct = _direct_light(solution, sub_points, normals, tri, barycentric, settings.subtexel_samples_per_edge,
+    (the shadow and gather rays are seeded from there, so no two steps repeat each other's samples). Light arrives
+    by the shading normal (smooth shading, as Cycles bakes); ``normals``, the faces' own, find buried points."""
+    scene = solution.scene
+    c, q = sub_points.shape[:2]
+    shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
+    direct = _direct_light(solution, sub_points, shading, tri, barycentric, settings.subtexel_samples_per_edge,
                            first_texel)
     timer.lap("direct")
-    scene = solution.scene
     if settings.indirect == "gather":
         light = _footprint_mean(scene, direct, tri, sub_bary) + final_gather(
-            solution, solution.direct.caster, sub_points, normals, settings.gather_samples_per_edge,
-            solution.direct.offset_m, settings.seed + first_texel)
+            solution, solution.direct.caster, sub_points, scene.shading_normals(tri, barycentric),
+            settings.gather_samples_per_edge, solution.direct.offset_m, settings.seed + first_texel,
+            face_normals=normals)
     else:
         light = _footprint_mean(scene, direct + _interpolated_indirect(solution, tri, sub_bary, sub_points, normals),
                                 tri, sub_bary)
@@ -154,10 +158,11 @@ def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, p
 
 
 def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge, first_texel) -> np.ndarray:
-    """(m, q, 3) direct light at the sub-texel points, with 1/k the shadow rays per edge at each (rounded up)."""
+    """(m, q, 3) direct light at the (m, q, 3) sub-texel points with their unit normals, with 1/k the shadow rays
+    per edge at each (rounded up)."""
     q = sub_points.shape[1]
     light_samples = -(-solution.direct.samples_per_edge // samples_per_edge)
-    light = solution.direct_light(sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0), np.repeat(tri, q),
+    light = solution.direct_light(sub_points.reshape(-1, 3), normals.reshape(-1, 3), np.repeat(tri, q),
                                   np.repeat(barycentric, q, axis=0), light_samples, seed_offset=q * first_texel)
     return light.reshape(-1, q, 3)
 

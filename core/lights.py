@@ -20,12 +20,15 @@ DISK_POLYGON_SIDES = 64
 
 
 def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
-                      offset_m: float, samples_per_edge: int, seed: int) -> np.ndarray:
-    """(m, 3) irradiance at points with unit normals from every light of the scene and its world."""
+                      offset_m: float, samples_per_edge: int, seed: int, lift=None) -> np.ndarray:
+    """(m, 3) irradiance at points with unit normals from every light of the scene and its world. ``lift``
+    (core.terminator.ShadowLift, optional) starts the lights' grazing shadow rays from smooth-shaded points on
+    their smooth surface, as Cycles does; the world's rays, which Cycles mostly traces as BSDF samples, start from
+    the points."""
     irradiance = np.zeros((len(points), 3))
     for index, light in enumerate(scene.lights):
         sampler = _SAMPLERS[type(light)]
-        scalar = sampler(light, caster, points, normals, offset_m, samples_per_edge, seed + 7919 * index)
+        scalar = sampler(light, caster, points, normals, offset_m, samples_per_edge, seed + 7919 * index, lift)
         irradiance += scalar[:, None] * np.asarray(light.color, dtype=np.float64)
     world = np.asarray(scene.world.radiance, dtype=np.float64)
     if world.max() > 0:
@@ -78,7 +81,7 @@ def _light_frame(light) -> np.ndarray:
     return frame
 
 
-def _point_like(light, caster, points, normals, offset_m, samples_per_edge, seed):
+def _point_like(light, caster, points, normals, offset_m, samples_per_edge, seed, lift):
     """Point and spot lights; a radius spreads the shadow-ray targets over a disk facing each receiver."""
     to_light = np.asarray(light.position, dtype=np.float64) - points
     distance = np.linalg.norm(to_light, axis=1)
@@ -98,11 +101,12 @@ def _point_like(light, caster, points, normals, offset_m, samples_per_edge, seed
         targets = light.position + np.einsum("msi,mik->msk", disk, frame[:, :2])
     else:
         targets = np.broadcast_to(np.asarray(light.position, dtype=np.float64), (len(lit), 1, 3))
-    irradiance[lit] *= visible_fraction(caster, points[lit], normals[lit], targets, -direction[lit], offset_m, 0.0)
+    irradiance[lit] *= visible_fraction(caster, points[lit], normals[lit], targets, -direction[lit], offset_m, 0.0,
+                                        _rows(lift, lit))
     return irradiance
 
 
-def _sun(light: SunLight, caster, points, normals, offset_m, samples_per_edge, seed):
+def _sun(light: SunLight, caster, points, normals, offset_m, samples_per_edge, seed, lift):
     """Sun: S cos(theta) times the share of a cone of the sun's angular diameter that is unoccluded."""
     to_sun = -np.asarray(light.direction, dtype=np.float64) / np.linalg.norm(light.direction)
     irradiance = light.strength_w_m2 * np.maximum(normals @ to_sun, 0.0)
@@ -114,13 +118,16 @@ def _sun(light: SunLight, caster, points, normals, offset_m, samples_per_edge, s
     frame = tangent_frames(to_sun[None])[0]
     directions = to_sun + disk @ frame[:2]
     directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
-    origins = np.repeat(points[lit] + offset_m * normals[lit], directions.shape[1], axis=0)
-    blocked = caster.occluded(origins, directions.reshape(-1, 3), np.full(len(origins), np.inf))
+    origins = np.broadcast_to((points[lit] + offset_m * normals[lit])[:, None, :], directions.shape)
+    if lift is not None:
+        origins = lift[lit].origins(origins, directions)
+    rays = directions.size // 3
+    blocked = caster.occluded(origins.reshape(-1, 3), directions.reshape(-1, 3), np.full(rays, np.inf))
     irradiance[lit] *= 1.0 - blocked.reshape(len(lit), -1).mean(axis=1)
     return irradiance
 
 
-def _area(light: AreaLight, caster, points, normals, offset_m, samples_per_edge, seed):
+def _area(light: AreaLight, caster, points, normals, offset_m, samples_per_edge, seed, lift):
     """Area light: pi L F(point -> polygon), lit only on the emitting side, times the visible share."""
     polygon = area_light_polygon(light)
     direction = _light_frame(light)[2]
@@ -142,7 +149,8 @@ def _area(light: AreaLight, caster, points, normals, offset_m, samples_per_edge,
     offsets = (unit - 0.5) * [width, height]
     targets = np.asarray(light.position) + offsets[..., :1] * frame[0] + offsets[..., 1:] * frame[1]
     light_normals = np.broadcast_to(direction, (len(lit), 3))
-    irradiance[lit] *= visible_fraction(caster, points[lit], normals[lit], targets, light_normals, offset_m, 0.0)
+    irradiance[lit] *= visible_fraction(caster, points[lit], normals[lit], targets, light_normals, offset_m, 0.0,
+                                        _rows(lift, lit))
     return irradiance
 
 
@@ -155,6 +163,10 @@ def _world_escape_share(caster, points, normals, offset_m, samples_per_edge, see
     origins = np.repeat(points + offset_m * normals, directions.shape[1], axis=0)
     blocked = caster.occluded(origins, directions.reshape(-1, 3), np.full(len(origins), np.inf))
     return 1.0 - blocked.reshape(len(points), -1).mean(axis=1)
+
+
+def _rows(lift, rows):
+    return None if lift is None else lift[rows]
 
 
 _SAMPLERS = {PointLight: _point_like, SpotLight: _point_like, SunLight: _sun, AreaLight: _area}

@@ -126,6 +126,9 @@ class Scene:
     object_index:    (T,) int, index into ``object_names`` (for messages and per-object outputs).
     casts_only:      (T,) bool, True for "shadow only" geometry: it blocks light but is not solved.
     triangle_uv:     (T, 3, 2) float, optional: each corner's UV in its material's texture.
+    corner_normals:  (T, 3, 3) float, optional: each corner's shading normal (Blender's corner normals: smooth
+                     shading, sharp edges, custom normals); default, and wherever one is not finite or is zero,
+                     the triangle's own normal.
 
     Zero-area triangles are dropped on construction; ``dropped_triangles`` counts them and
     ``triangle_source`` maps each kept triangle to its index in the input.
@@ -140,6 +143,7 @@ class Scene:
     object_names: list[str] | None = None
     casts_only: np.ndarray | None = None
     triangle_uv: np.ndarray | None = None
+    corner_normals: np.ndarray | None = None
     dropped_triangles: int = field(init=False, default=0)
     triangle_source: np.ndarray = field(init=False)
 
@@ -158,6 +162,7 @@ class Scene:
         if self.triangle_uv is None:
             self.triangle_uv = np.zeros((count, 3, 2))
         self.triangle_uv = np.asarray(self.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)
+        self.corner_normals = _unit_corner_normals(self.triangles, self.corner_normals)
         _validate(self)
         keep = triangle_areas(self.triangles) > 0.0
         self.dropped_triangles = int(count - keep.sum())
@@ -167,6 +172,7 @@ class Scene:
         self.object_index = self.object_index[keep]
         self.casts_only = self.casts_only[keep]
         self.triangle_uv = self.triangle_uv[keep]
+        self.corner_normals = self.corner_normals[keep]
         if not (~self.casts_only).any():
             raise SceneError("Nothing to bake: every triangle has zero area or is 'shadow only'.")
 
@@ -183,6 +189,14 @@ class Scene:
             uv = np.einsum("mc,mck->mk", barycentric[rows], self.triangle_uv[scene_triangle[rows]])
             reflectance[rows] = texture.lookup(uv)
         return reflectance
+
+    def shading_normals(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+        """(m, 3) unit shading normals at surface points: the corner normals interpolated and normalised, as
+        Cycles shades a smooth triangle (and bakes it); the triangle's normal where they cancel out."""
+        normal = np.einsum("mc,mck->mk", barycentric, self.corner_normals[scene_triangle])
+        length = np.linalg.norm(normal, axis=1, keepdims=True)
+        flat = triangle_unit_normals(self.triangles[scene_triangle])
+        return np.where(length > 1e-6, normal / np.maximum(length, 1e-300), flat)
 
     def textured_rows(self, scene_triangle: np.ndarray):
         """(texture, rows) for each textured material among the given triangles: the rows whose triangle has it
@@ -216,6 +230,20 @@ def triangle_unit_normals(triangles: np.ndarray) -> np.ndarray:
     """Unit normals of (..., 3, 3) triangles (right-handed winding); zero for degenerate ones."""
     normal = np.cross(triangles[..., 1, :] - triangles[..., 0, :], triangles[..., 2, :] - triangles[..., 0, :])
     return normal / np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-300)
+
+
+def _unit_corner_normals(triangles: np.ndarray, corner_normals) -> np.ndarray:
+    """(T, 3, 3) unit corner normals; the triangle's normal for corners without a usable one."""
+    flat = np.repeat(triangle_unit_normals(triangles)[:, None, :], 3, axis=1)
+    if corner_normals is None:
+        return flat
+    normals = np.asarray(corner_normals, dtype=np.float64)
+    if normals.shape != flat.shape:
+        raise SceneError(f"corner_normals has shape {normals.shape} for {len(triangles)} triangles.")
+    with np.errstate(invalid="ignore", over="ignore"):
+        length = np.linalg.norm(normals, axis=2, keepdims=True)
+        usable = np.isfinite(length) & (length > 1e-12)
+        return np.where(usable, normals / np.where(usable, length, 1.0), flat)
 
 
 def _validate(scene: Scene) -> None:

@@ -16,7 +16,8 @@ import numpy as np
 
 from .direct import DirectLighting
 from .mesh import ElementMesh, weld_vertices
-from .scene import Scene, triangle_unit_normals
+from .scene import Scene
+from .terminator import ShadowLift
 from .solver import ConvergenceStep, RadiosityState
 from .texels import inset
 
@@ -104,7 +105,8 @@ class Solution:
         """(m, 3) light at surface points given by scene triangle index and barycentrics in that triangle.
 
         With ``direct_per_point`` (and ``direct`` set), the direct part is computed at each point with shadow rays
-        and only the indirect part is interpolated from the element corners; otherwise the element solution is
+        (arriving by the shading normal, core.scene.Scene.shading_normals) and only the indirect part is
+        interpolated from the element corners; otherwise the element solution is
         interpolated. Points on "shadow only" triangles (not solved) get NaN; black channels of the reflectance
         get 0, as in Cycles' Diffuse bake without Color (it divides by the albedo).
         """
@@ -116,7 +118,8 @@ class Solution:
         points = np.einsum("mc,mck->mk", barycentric, triangles)
         solved, leaf, _ = self._leaves(scene_triangle, barycentric)
         points[solved] = inset(points[solved], self.state.elements.centroid[leaf], 4 * self.direct.offset_m)
-        direct = self.direct_light(points, triangle_unit_normals(triangles), scene_triangle, barycentric)
+        normals = self.scene.shading_normals(np.asarray(scene_triangle, dtype=np.int64), barycentric)
+        direct = self.direct_light(points, normals, scene_triangle, barycentric)
         return self.black_stays_black(direct + self.indirect_light(scene_triangle, barycentric), scene_triangle)
 
     def black_stays_black(self, light: np.ndarray, scene_triangle: np.ndarray) -> np.ndarray:
@@ -130,11 +133,14 @@ class Solution:
                      seed_offset: int = 0) -> np.ndarray:
         """(m, 3) direct light (irradiance / pi) at points by shadow rays; the point's own patch (found from its
         triangle and barycentrics) is not counted as an emitter. NaN on triangles that were not solved.
-        ``seed_offset`` shifts the shadow rays' seed, for points lit in several calls."""
+        ``seed_offset`` shifts the shadow rays' seed, for points lit in several calls. Shadow rays from
+        smooth-shaded triangles start on their smooth surface (core.terminator)."""
         solved, leaf, _ = self._leaves(scene_triangle, barycentric)
+        lift = ShadowLift.at(self.scene, np.asarray(scene_triangle, dtype=np.int64)[solved],
+                             np.asarray(barycentric, dtype=np.float64)[solved], normals[solved])
         out = np.full((len(points), 3), np.nan)
         out[solved] = self.direct.irradiance(points[solved], normals[solved], self.state.elements.patch[leaf],
-                                             samples_per_edge, seed_offset) / np.pi
+                                             samples_per_edge, seed_offset, lift) / np.pi
         return out
 
     def indirect_light(self, scene_triangle: np.ndarray, barycentric: np.ndarray,

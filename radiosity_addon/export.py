@@ -56,12 +56,17 @@ class Export:
         return kept
 
 
+# Per-triangle arrays of a core.Scene, gathered object by object; the first three hold a value per corner.
+CORNER_COLUMNS = ("triangles", "triangle_uv", "corner_normals")
+COLUMNS = CORNER_COLUMNS + ("material_index", "casts_only", "object_index")
+
+
 def export_scene(context) -> Export:
     """Read the evaluated scene; raises core.SceneError (naming the item) for what the core refuses."""
     depsgraph = context.evaluated_depsgraph_get()
     materials = _Materials()
-    triangles, material_index, casts_only, objects, object_index, triangle_uv = [], [], [], [], [], []
-    lights, names = [], []
+    columns = {name: [] for name in COLUMNS}
+    objects, lights, names = [], [], []
     for instance in depsgraph.object_instances:
         evaluated = instance.object
         original = evaluated.original
@@ -77,46 +82,43 @@ def export_scene(context) -> Export:
         part = _mesh_triangles(evaluated, np.array(instance.matrix_world), materials)
         if part is None:
             continue
-        world_triangles, slots, loops, vertices, uv = part
+        loops, vertices = part.pop("loops"), part.pop("vertices")
+        count = len(loops)
         name = original.name if not instance.is_instance else f"{original.name} (instance of {owner.name})"
-        first = sum(len(t) for t in triangles)
         objects.append(ExportedObject(
             name=original.name, mesh_name=original.data.name if original.type == "MESH" else "",
-            first_triangle=first, triangle_count=len(world_triangles), corner_loops=loops, corner_vertices=vertices,
-            writable=(not instance.is_instance and original.type == "MESH" and mode == "BAKE"),
+            first_triangle=sum(len(t) for t in columns["triangles"]), triangle_count=count, corner_loops=loops,
+            corner_vertices=vertices, writable=(not instance.is_instance and original.type == "MESH" and
+                                                mode == "BAKE"),
             same_topology=_same_topology(evaluated, original)))
         names.append(name)
-        triangles.append(world_triangles)
-        triangle_uv.append(uv)
-        material_index.append(slots)
-        casts_only.append(np.full(len(world_triangles), mode == "SHADOW_ONLY"))
-        object_index.append(np.full(len(world_triangles), len(names) - 1))
-    _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials.list, triangle_uv)
-    stack = lambda parts, shape, dtype: np.concatenate(parts) if parts else np.zeros(shape, dtype)
-    input_triangles = stack(triangles, (0, 3, 3), float)
-    scene = Scene(input_triangles, stack(material_index, 0, int), materials.list or
-                  [DEFAULT_MATERIAL], lights=lights, world=_world(context.scene, materials.warnings),
-                  object_index=stack(object_index, 0, int), object_names=names,
-                  casts_only=stack(casts_only, 0, bool), triangle_uv=stack(triangle_uv, (0, 3, 2), float))
-    return Export(scene, objects, input_triangles, materials.warnings)
+        part.update(casts_only=np.full(count, mode == "SHADOW_ONLY"), object_index=np.full(count, len(names) - 1))
+        for key, value in part.items():
+            columns[key].append(value)
+    if objects:
+        _add_emitter_backs(columns, names, materials.list)
+    nothing = {"triangles": np.zeros((0, 3, 3)), "material_index": np.zeros(0, dtype=int)}
+    arrays = {key: np.concatenate(value) for key, value in columns.items() if value} or nothing
+    scene = Scene(materials=materials.list or [DEFAULT_MATERIAL], lights=lights,
+                  world=_world(context.scene, materials.warnings), object_names=names, **arrays)
+    return Export(scene, objects, arrays["triangles"], materials.warnings)
 
 
-def _add_emitter_backs(triangles, material_index, casts_only, object_index, names, materials, triangle_uv) -> None:
+def _add_emitter_backs(columns: dict, names: list[str], materials: list[Material]) -> None:
     """Cycles' mesh lights emit from both faces: append a flipped copy of every emissive triangle (after all
     objects' ranges, as one extra unwritable part) so the back face shoots too."""
-    if not triangles:
-        return
     emissive = np.array([max(m.emitted_radiance) > 0 for m in materials] or [False])
-    all_triangles, all_materials = np.concatenate(triangles), np.concatenate(material_index)
-    back = emissive[all_materials] & ~np.concatenate(casts_only)
+    back = emissive[np.concatenate(columns["material_index"])] & ~np.concatenate(columns["casts_only"])
     if not back.any():
         return
     names.append("(back faces of emitters)")
-    triangles.append(all_triangles[back][:, ::-1])
-    triangle_uv.append(np.concatenate(triangle_uv)[back][:, ::-1])
-    material_index.append(all_materials[back])
-    casts_only.append(np.zeros(int(back.sum()), dtype=bool))
-    object_index.append(np.full(int(back.sum()), len(names) - 1))
+    flipped = {key: np.concatenate(columns[key])[back] for key in COLUMNS}
+    for key in CORNER_COLUMNS:
+        flipped[key] = flipped[key][:, ::-1]
+    flipped["corner_normals"] = -flipped["corner_normals"]
+    flipped["object_index"] = np.full(int(back.sum()), len(names) - 1)
+    for key, value in flipped.items():
+        columns[key].append(value)
 
 
 def _mode(obj) -> str:
@@ -131,15 +133,17 @@ def _same_topology(evaluated, original) -> bool:
     return len(mesh.loops) == len(original.data.loops) and len(mesh.polygons) == len(original.data.polygons)
 
 
-def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials"):
-    """World-space (t, 3, 3) triangles, global material indices (t,), corner loops and vertices (t, 3) and the
-    corners' UVs in their material's texture (t, 3, 2), or None."""
+def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials") -> dict | None:
+    """An evaluated object's triangles as Scene columns: world-space "triangles" (t, 3, 3), "corner_normals"
+    (t, 3, 3), global "material_index" (t,), each corner's "triangle_uv" in its material's texture (t, 3, 2),
+    and its "loops" and "vertices" (t, 3) in the evaluated mesh; None without faces."""
     mesh = evaluated.to_mesh()
     try:
         corners, loops = loop_triangles(mesh)
         if len(corners) == 0:
             return None
         world = world_positions(mesh, matrix)
+        normals = world_corner_normals(mesh, matrix)
         slot = np.empty(len(corners), dtype=np.int32)
         mesh.loop_triangles.foreach_get("material_index", slot)
         table = np.array([materials.index(s.material) for s in evaluated.material_slots] or
@@ -150,7 +154,8 @@ def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials"):
         evaluated.to_mesh_clear()
     if np.linalg.det(matrix[:3, :3]) < 0:  # mirrored: keep the winding consistent with Blender's normals
         corners, loops, uv = corners[:, ::-1], loops[:, ::-1], uv[:, ::-1]
-    return world[corners], material, loops, corners, uv
+    return {"triangles": world[corners], "corner_normals": normals[loops], "material_index": material,
+            "triangle_uv": uv, "loops": loops, "vertices": corners}
 
 
 def loop_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -168,6 +173,15 @@ def world_positions(mesh, matrix: np.ndarray) -> np.ndarray:
     positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
     mesh.vertices.foreach_get("co", positions)
     return positions.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def world_corner_normals(mesh, matrix: np.ndarray) -> np.ndarray:
+    """(loops, 3) unit world-space shading normal of every face corner (smooth shading, sharp edges and custom
+    normals as Blender computes them), through the inverse transpose of the object matrix."""
+    normals = np.empty(len(mesh.loops) * 3, dtype=np.float32)
+    mesh.corner_normals.foreach_get("vector", normals)
+    world = normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(matrix[:3, :3])
+    return world / np.maximum(np.linalg.norm(world, axis=1, keepdims=True), 1e-12)
 
 
 def _texture_uvs(mesh, material: np.ndarray, loops: np.ndarray, materials: list[Material]) -> np.ndarray:

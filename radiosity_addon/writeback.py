@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core import SceneError
 from ..core.raycast import RayCaster
-from .export import Export, ExportedObject, world_positions
+from .export import Export, ExportedObject, world_corner_normals, world_positions
 
 OWNED_ATTRIBUTE = "radiosity_attribute"
 RADIOSITY_MESH_TAG = "radiosity_mesh"
@@ -71,12 +71,8 @@ def _projected_light(item, solution, triangles, obj) -> np.ndarray:
     count = len(mesh.loops)
     vertex = np.empty(count, dtype=np.int32)
     mesh.loops.foreach_get("vertex_index", vertex)
-    normals = np.empty(count * 3, dtype=np.float32)
-    mesh.corner_normals.foreach_get("vector", normals) if hasattr(mesh, "corner_normals") else \
-        mesh.loops.foreach_get("normal", normals)
     points = world_positions(mesh, matrix)[vertex]
-    normal = normals.reshape(-1, 3) @ np.linalg.inv(matrix[:3, :3])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+    normal = world_corner_normals(mesh, matrix)
     reach = 0.05 * solution.scene.size_m
     best = np.full(count, np.inf)
     light = np.zeros((count, 3))

@@ -94,6 +94,22 @@ def test_sunlit_plane_is_exact_and_dilated():
     assert grown.sum() > result.covered.sum()
 
 
+def test_texels_and_corners_take_light_by_their_shading_normal():
+    """A plane whose corner normals all lean 30 degrees towards a sun 30 degrees from the zenith (custom normals,
+    or smooth shading on a curved mesh): every texel and every corner faces the sun through its shading normal and
+    holds E / pi = 3 / pi (flat shading would give 3 cos 30 / pi), as Cycles bakes it."""
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    towards_sun = np.array([0.0, np.sin(np.radians(30)), np.cos(np.radians(30))])
+    sun = SunLight("sun", tuple(-towards_sun), strength_w_m2=3.0)
+    scene = Scene(floor, np.zeros(2, int), [Material("grey", (0.5,) * 3)], lights=[sun],
+                  corner_normals=np.broadcast_to(towards_sun, (2, 3, 3)))
+    result, _, _ = lightmap_of(scene, [floor])
+    assert result.light[result.covered] == pytest.approx(3.0 / np.pi, rel=1e-6)
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    corners = solution.evaluate(np.repeat([0, 1], 3), np.tile(np.eye(3), (2, 1)), direct_per_point=True)
+    assert corners == pytest.approx(3.0 / np.pi, rel=1e-6)
+
+
 def test_a_page_is_lit_in_steps_with_progress_and_esc_between_them(monkeypatch):
     """Lit 100 texels per step, the sunlit plane still holds E cos / pi in every texel (no step is skipped or
     lit twice); progress rises to 1, and a cancel between steps stops the bake."""

@@ -125,13 +125,24 @@ def triangle_uvs(mesh, uv_map: str) -> np.ndarray:
     return uv.reshape(-1, 2)[loops].reshape(-1, 3, 2).astype(np.float64)
 
 
+EDGE_MARGIN_TEXELS = 0.01
+
+
 def uv_coverage(objects, uv_map: str, width: int, height: int) -> np.ndarray:
-    """(height, width) texels whose centre lies strictly inside a triangle of the objects' UV map (what Cycles
-    bakes; xatlas puts chart borders through texel centres, which Cycles' rasteriser may leave to neither side)."""
+    """(height, width) texels whose centre lies inside a triangle of the objects' UV map, more than
+    EDGE_MARGIN_TEXELS from its edges: what Cycles bakes on the same triangle as we do. (xatlas puts chart
+    borders through texel centres, which Cycles' rasteriser may leave to neither side, and a centre on an edge
+    inside a chart may go to the triangle on the other side, a differently lit face.)"""
+    from radiosity_baker.core.scene import triangle_areas
     from radiosity_baker.core.texels import rasterize
     covered = np.zeros(width * height, dtype=bool)
     for obj in objects:
-        texels = rasterize(triangle_uvs(obj.data, uv_map), width, height)
-        strictly = texels.centre_inside & (texels.barycentric.min(axis=1) > 1e-4)
+        corner_uv = triangle_uvs(obj.data, uv_map)
+        texels = rasterize(corner_uv, width, height)
+        corners = np.concatenate([corner_uv * [width, height], np.zeros(corner_uv.shape[:2] + (1,))], axis=2)
+        opposite = np.linalg.norm(corners[:, [1, 2, 0]] - corners[:, [2, 0, 1]], axis=2)  # edge facing corner k
+        heights = 2 * triangle_areas(corners)[:, None] / np.maximum(opposite, 1e-12)
+        distance = texels.barycentric * heights[texels.triangle]  # texels from each edge
+        strictly = texels.centre_inside & (distance.min(axis=1) > EDGE_MARGIN_TEXELS)
         covered[texels.pixel[strictly]] = True
     return covered.reshape(height, width)

@@ -7,7 +7,8 @@ import bpy
 import numpy as np
 import pytest
 
-from blender_setup import add_light, cycles_lightmap_bake, grid_plane, make_cornell_box, triangle_uvs, uv_coverage
+from blender_setup import (add_light, corner_colors, cycles_lightmap_bake, cycles_vertex_bake, grid_plane,
+                           make_cornell_box, triangle_uvs, uv_coverage)
 SIZE = 128
 MEASURED_DRAFT_ERROR = 0.043  # relative RMSE of the Draft lightmap against converged Cycles (docs/benchmarks.md)
 
@@ -101,6 +102,36 @@ def test_cornell_lightmap_matches_cycles(tmp_path, extension):
     for obj in objects:
         own = uv_coverage([obj], "Lightmap", SIZE, SIZE) & mask
         assert ours[own].mean(axis=0) == pytest.approx(reference[own].mean(axis=0), rel=0.08), obj.name
+
+
+@pytest.mark.parametrize("shading", ["flat", "smooth"])
+def test_a_sunlit_sphere_matches_cycles_flat_or_smooth_shaded(empty_scene, extension, tmp_path, shading):
+    """A 16 x 8 UV sphere under a sun, black world (direct light only), baked into a 128 x 128 lightmap and into
+    vertex colours: relative RMSE against Cycles' bake on the same texels and corners <= 1% each. Shaded smooth,
+    light arrives by the interpolated corner normals and grazing shadow rays start on the smooth surface the
+    normals imply (core.terminator), as in Cycles. Measured: lightmap flat 0.03%, smooth 0.39%; the smooth
+    sphere's lightmap was 23% off with the faces' own normals and 4.8% without the smooth-surface start."""
+    from radiosity_baker.core.image_file import read_image
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8, radius=1.0)
+    sphere = bpy.context.active_object
+    if shading == "smooth":
+        bpy.ops.object.shade_smooth()
+    material = bpy.data.materials.new("Grey")
+    material.use_nodes = True
+    material.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+    sphere.data.materials.append(material)
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0, angle=0.0).rotation_euler = (0.7, 0.3, 0.0)
+    settings = empty_scene.radiosity
+    settings.quality, settings.target, settings.lightmap_resolution = "DRAFT", "BOTH", SIZE
+    settings.lightmap_folder = str(tmp_path)
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    ours = read_image(str(tmp_path / "Radiosity_Lightmap.exr")).astype(np.float64)[..., :3]
+    cycles, _ = cycles_lightmap_bake([sphere], "Lightmap", SIZE, SIZE, samples=32)
+    mask = uv_coverage([sphere], "Lightmap", SIZE, SIZE)
+    assert np.sqrt(np.mean((ours[mask] - cycles[mask]) ** 2)) <= 0.01 * cycles[mask].mean()
+    cycles_vertex_bake([sphere], samples=32)
+    ours, cycles = corner_colors(sphere.data, "Radiosity"), corner_colors(sphere.data, "Cycles")
+    assert np.sqrt(np.mean((ours - cycles) ** 2)) <= 0.01 * cycles.mean()
 
 
 def material_snapshot(material):
