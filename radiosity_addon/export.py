@@ -85,12 +85,11 @@ def export_scene(context) -> Export:
         loops, vertices = part.pop("loops"), part.pop("vertices")
         count = len(loops)
         name = original.name if not instance.is_instance else f"{original.name} (instance of {owner.name})"
+        writable = not instance.is_instance and original.type == "MESH" and mode == "BAKE"
         objects.append(ExportedObject(
             name=original.name, mesh_name=original.data.name if original.type == "MESH" else "",
             first_triangle=sum(len(t) for t in columns["triangles"]), triangle_count=count, corner_loops=loops,
-            corner_vertices=vertices, writable=(not instance.is_instance and original.type == "MESH" and
-                                                mode == "BAKE"),
-            same_topology=_same_topology(evaluated, original)))
+            corner_vertices=vertices, writable=writable, same_topology=_same_topology(evaluated, original)))
         names.append(name)
         part.update(casts_only=np.full(count, mode == "SHADOW_ONLY"), object_index=np.full(count, len(names) - 1))
         for key, value in part.items():
