@@ -16,6 +16,7 @@ Cycles bakes the dark inside, we push the sample out to the visible floor beside
 from __future__ import annotations
 
 import argparse
+import hashlib
 import os
 import sys
 import tempfile
@@ -26,6 +27,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "addon"))
+from blender_setup import triangle_uvs  # noqa: E402
 
 LEFT_OUT = {"cornell_box": {"ceiling", "light"}, "room": set()}
 
@@ -71,8 +73,9 @@ def main() -> None:
     objects = [o for o in objects if o.name not in LEFT_OUT[args.scene] and OFFSET_PROPERTY not in o]
     size = args.resolution
     mask = uv_coverage(objects, "Lightmap", size, size) & ~moved
-    cache = Path(args.cache) / f"{args.scene}_{size}_{args.reference}.npz" if args.cache else None
-    if cache is not None and cache.exists():  # the layout is deterministic, so the reference can be reused
+    cache = Path(args.cache) / reference_file(args.scene, bake.export.scene, objects, size, args.reference) \
+        if args.cache else None
+    if cache is not None and cache.exists():
         stored = np.load(cache)
         first, second, reference_seconds = stored["first"], stored["second"], float(stored["seconds"])
     else:
@@ -101,8 +104,27 @@ def main() -> None:
         matched_text = f"{matched:23.2f}{'*' if extrapolated else ' '}" if matched else f"{'(beyond the ladder)':>24s}"
         print(f"{'radiosity ' + quality.lower():24s} {seconds:8.2f} {error:10.4f} {matched_text} {ratio}")
     print("* extrapolated below the ladder along its two lowest-error points")
+    print(f"\n{'relative RMSE per object':24s}" + "".join(f"{quality.lower():>10s}" for quality in ours))
+    for obj in objects:
+        own = uv_coverage([obj], "Lightmap", size, size) & mask
+        own_variance = float(np.mean((first[own] - second[own]) ** 2) / 4.0)
+        errors = [relative_rmse(light, reference, own, own_variance) for light, _ in ours.values()]
+        print(f"{obj.name:24s}" + "".join(f"{error:10.4f}" for error in errors))
     sys.stdout.flush()
     os._exit(0)  # bpy 4.2 crashes at interpreter teardown
+
+
+def reference_file(name: str, scene, objects, size: int, samples: int) -> str:
+    """A reference bake's file name, keyed by what it depends on: Blender's version, the exported scene
+    (geometry, materials, lights, world) and the UV map it is baked on."""
+    import bpy
+    digest = hashlib.sha1(bpy.app.version_string.encode())
+    digest.update(scene.triangles.tobytes())
+    digest.update(repr((scene.reflectance.tolist(), scene.emitted_radiance.tolist(), scene.lights,
+                        scene.world)).encode())
+    for obj in objects:
+        digest.update(obj.name.encode() + triangle_uvs(obj.data, "Lightmap").tobytes())
+    return f"{name}_{size}_{samples}_{digest.hexdigest()[:12]}.npz"
 
 
 def cycles_seconds_at(error: float, cycles: list[tuple[float, float]]) -> tuple[float | None, bool]:
