@@ -2,7 +2,8 @@
 
 room.blend: a 5 x 4 x 2.6 m room with a window in one wall, a sun shining through it and a blue sky, a point
 light, a spot light and an area light, a floor with a packed 64 x 64 checker image texture, a shelf made by Array
-and Bevel modifiers, and two chairs that share one mesh (linked duplicates).
+and Bevel modifiers, two chairs that share one mesh (linked duplicates) and a low-poly ball shaded smooth in the
+sunlight.
 
 cornell_box.blend: the Cornell box from the graphics.cornell.edu data (mm -> m), reflectances and light radiance as
 in Mitsuba 3 (docs/references in the README), the light as an emissive mesh (Emission Strength = radiance) 0.5 mm
@@ -167,6 +168,28 @@ def box_object(name, lo, hi, mat):
     return obj
 
 
+def smooth_sphere(name, centre, radius, mat, segments=12, rings=6):
+    """A low-poly UV sphere shaded smooth (the terminator test of smooth shading), made from its vertices so
+    the face order is the same every time."""
+    polar = np.pi * np.arange(1, rings) / rings
+    around = 2 * np.pi * np.arange(segments) / segments
+    ring = [(np.sin(p) * np.cos(a), np.sin(p) * np.sin(a), np.cos(p)) for p in polar for a in around]
+    vertices = [tuple(centre + radius * np.array(v)) for v in [(0, 0, 1), *ring, (0, 0, -1)]]
+    index = lambda r, k: 1 + r * segments + k % segments
+    faces = [(0, index(0, k), index(0, k + 1)) for k in range(segments)]
+    faces += [(index(r, k), index(r + 1, k), index(r + 1, k + 1), index(r, k + 1))
+              for r in range(rings - 2) for k in range(segments)]
+    faces += [(index(rings - 2, k + 1), index(rings - 2, k), len(vertices) - 1) for k in range(segments)]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices, [], faces)
+    mesh.polygons.foreach_set("use_smooth", [True] * len(faces))
+    mesh.materials.append(mat)
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
 ROOM = (5.0, 4.0, 2.6)
 WINDOW = (1.2, 2.8, 0.9, 2.1)  # y from, y to, z from, z to, in the +x wall
 
@@ -218,6 +241,7 @@ def room(path: Path) -> None:
     twin.location = (chair.location[0] + 1.0, chair.location[1] + 0.8, chair.location[2])
     scene.collection.objects.link(twin)
     box_object("table", (2.1, 2.1, 0.7), (3.3, 2.9, 0.76), principled("table top", (0.5, 0.5, 0.52)))
+    smooth_sphere("ball", np.array([3.5, 1.6, 0.2]), 0.2, principled("blue ball", (0.2, 0.45, 0.7)))
     lights = [("sun", "SUN", (0, 0, 0), 8.0, {"angle": np.radians(1.0)}, (np.radians(60), 0.0, np.radians(90))),
               ("bulb", "POINT", (1.0, 3.2, 2.2), 60.0, {"shadow_soft_size": 0.05}, (0.0, 0.0, 0.0)),
               ("spot", "SPOT", (4.5, 0.4, 2.4), 150.0, {"spot_size": np.radians(50), "spot_blend": 0.2,
