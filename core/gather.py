@@ -9,8 +9,8 @@ With cosine-weighted directions (pdf cos(theta) / pi) the indirect irradiance is
 where B_r = rho H is the reflected radiosity at the hit (a diffuse surface's radiance is B / pi). Emission and
 the world are left out: core.direct adds them exactly, with shadow rays. Back faces and unsolved ("shadow only")
 surfaces return nothing, and so do directions below the face's own plane when the cosine lobe is turned by a
-shading normal (Cycles' diffuse BSDF gives them no weight). Directions are stratified (s x s jittered cells, Malley's method) with a seeded shift
-per point, so the result is deterministic.
+shading normal (Cycles' diffuse BSDF gives them no weight). Directions are stratified (s x s jittered cells,
+Malley's method) with a seeded shift per point, so the result is deterministic.
 """
 from __future__ import annotations
 
