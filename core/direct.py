@@ -31,7 +31,8 @@ class DirectLighting:
                    samples_per_edge: int | None = None, seed_offset: int = 0, lift=None) -> np.ndarray:
         """(m, 3) direct irradiance at points with unit normals; ``own_patch`` (m,) excludes each point's patch;
         ``samples_per_edge`` overrides the shadow-ray count (s^2 per light and emitter); ``seed_offset`` is added
-        to the bake's seed; ``lift`` (core.terminator.ShadowLift) as in core.lights.direct_irradiance."""
+        to the bake's seed; ``lift`` (core.terminator.ShadowLift) starts the shadow rays towards lamps and
+        emissive patches from smooth-shaded points on their smooth surface (core.terminator)."""
         samples = samples_per_edge or self.samples_per_edge
         total = direct_irradiance(self.scene, self.caster, points, normals, self.offset_m, samples,
                                   self.seed + seed_offset, lift)
@@ -45,5 +46,5 @@ class DirectLighting:
                                  emitted_exitance=None, exposed_m2=None)
             for start in range(0, len(self.emitters), 64):
                 block = self.emitters[start:start + 64]
-                total += rows.block(block, receivers) @ self.emission[start:start + 64]
+                total += rows.block(block, receivers, lift) @ self.emission[start:start + 64]
         return total

@@ -48,9 +48,10 @@ class RayCastRows:
         self.samples_per_edge, self.offset_m = samples_per_edge, offset_m
         self._samples = triangle_samples(patches.corners, samples_per_edge)
 
-    def block(self, patches: np.ndarray, receivers: Elements) -> np.ndarray:
+    def block(self, patches: np.ndarray, receivers: Elements, lift=None) -> np.ndarray:
         """(n, b) form factors from every receiver to each of the b given patches; only the pairs where the
-        receiver lies in front of the patch are ever gathered into flat arrays."""
+        receiver lies in front of the patch are ever gathered into flat arrays. ``lift`` (core.terminator.ShadowLift
+        per receiver, optional) starts grazing shadow rays from smooth-shaded receivers on their smooth surface."""
         patch_normal = self.patches.normal[patches]
         height = receivers.centroid @ patch_normal.T - np.einsum("bk,bk->b", self.patches.centroid[patches],
                                                                    patch_normal)
@@ -60,7 +61,8 @@ class RayCastRows:
         values = point_to_polygon(centroid, normal, self.patches.corners[patch])
         seen = np.flatnonzero(values > 0)
         values[seen] *= visible_fraction(self.caster, centroid[seen], normal[seen], self._samples[patch[seen]],
-                                         self.patches.normal[patch[seen]], self.offset_m, self.offset_m)
+                                         self.patches.normal[patch[seen]], self.offset_m, self.offset_m,
+                                         None if lift is None else lift[receiver[seen]])
         factors = np.zeros((len(receivers.node), len(patches)))
         factors[receiver, column] = values
         return factors

@@ -6,8 +6,8 @@ staircase. Cycles (kernel/light/sample.h: shadow_ray_smooth_surface_offset, shad
 "Hacking the shadow terminator", Ray Tracing Gems II, ch. 4) lifts the origin of such grazing shadow rays onto
 a parabolic surface through the corners, tangent to their normals. We do the same, so a smooth low-poly mesh
 bakes the light Cycles bakes. Cycles' per-object "Shadow Terminator > Geometry Offset" defaults to 0.1; that
-default is used for every object. Applied to the shadow rays towards lamps (point, spot, sun, area); rays to
-emissive meshes and the world still start from the flat triangle. Concave lifts (which would put the origin below
+default is used for every object. Applied to the shadow rays towards lamps and emissive patches; the world's
+rays (which Cycles mostly traces as BSDF samples) still start from the flat triangle. Concave lifts (which would put the origin below
 the triangle, where Cycles skips the triangle itself and we cannot) are left out.
 """
 from __future__ import annotations

@@ -190,3 +190,33 @@ def test_a_smooth_low_poly_cylinder_is_lit_like_the_cylinder_its_normals_describ
     smooth = direct_irradiance(scene, caster, points, shading, 1e-5, 1, seed=0, lift=lift)[:, 0]
     assert np.abs(flat - expected).max() > 0.25 * 3.0
     assert smooth == pytest.approx(expected, abs=1e-9)
+
+
+def test_a_smooth_low_poly_cylinder_lit_by_an_emissive_panel_gets_the_panel_s_closed_form():
+    """The same prism facing a 6 x 6 m emissive panel (radiance 1) 15 m away, black world: every point gets
+    E = pi L F(point -> panel) with its shading normal (Lambert's contour formula), within 1e-5 of the largest
+    value, when shadow rays towards the panel's patches start on the smooth surface; from the flat facets some
+    points near the terminator are more than 1% short."""
+    from core import BakeSettings, bake
+    from core.formfactor import point_to_polygon
+    from core.terminator import ShadowLift
+    triangles, normals = octagonal_prism_smooth()
+    panel = quad((-15, -3, -3), (-15, 3, -3), (-15, 3, 3), (-15, -3, 3))
+    scene = Scene(np.concatenate([triangles, panel]), np.r_[np.zeros(len(triangles), int), [1, 1]],
+                  [Material("grey"), Material("glow", (0.0,) * 3, (1.0,) * 3)],
+                  corner_normals=np.concatenate([normals, np.broadcast_to([1.0, 0.0, 0.0], (2, 3, 3))]))
+    direct = bake(scene, BakeSettings(patch_size_m=2.0, element_size_m=1.0, adaptive_passes=0)).direct
+    rng = np.random.default_rng(1)
+    triangle = rng.integers(0, len(triangles), 3000)
+    uv = rng.random((3000, 2))
+    uv = np.where(uv.sum(axis=1, keepdims=True) > 1, 1 - uv, uv)
+    barycentric = np.column_stack([1 - uv.sum(axis=1), uv])
+    points = np.einsum("mc,mck->mk", barycentric, scene.triangles[triangle])
+    shading = scene.shading_normals(triangle, barycentric)
+    outline = np.broadcast_to([panel[0, 0], panel[0, 1], panel[0, 2], panel[1, 2]], (3000, 4, 3)).copy()
+    expected = np.pi * point_to_polygon(points, shading, outline)
+    smooth = direct.irradiance(points, shading, lift=ShadowLift.at(scene, triangle, barycentric, shading))[:, 0]
+    flat = direct.irradiance(points, shading)[:, 0]
+    assert np.abs(smooth - expected).max() < 1e-5 * expected.max()
+    assert np.abs(flat - expected).max() > 0.01 * expected.max()
+
