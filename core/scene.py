@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 RGB = tuple[float, float, float]
+TERMINATOR_GEOMETRY_OFFSET = 0.1  # Blender's default for an object's Shadow Terminator Geometry Offset
 
 
 class SceneError(ValueError):
@@ -129,6 +130,8 @@ class Scene:
     corner_normals:  (T, 3, 3) float, optional: each corner's shading normal (Blender's corner normals: smooth
                      shading, sharp edges, custom normals); default, and wherever one is not finite or is zero,
                      the triangle's own normal.
+    terminator_offset: (T,) float in [0, 1], optional: the object's Cycles Shadow Terminator Geometry Offset
+                     (core.terminator; 0 turns the smooth-surface start off); default 0.1, Blender's.
 
     Zero-area triangles are dropped on construction; ``dropped_triangles`` counts them and
     ``triangle_source`` maps each kept triangle to its index in the input.
@@ -144,6 +147,7 @@ class Scene:
     casts_only: np.ndarray | None = None
     triangle_uv: np.ndarray | None = None
     corner_normals: np.ndarray | None = None
+    terminator_offset: np.ndarray | None = None
     dropped_triangles: int = field(init=False, default=0)
     triangle_source: np.ndarray = field(init=False)
 
@@ -163,6 +167,9 @@ class Scene:
             self.triangle_uv = np.zeros((count, 3, 2))
         self.triangle_uv = np.asarray(self.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)
         self.corner_normals = _unit_corner_normals(self.triangles, self.corner_normals)
+        if self.terminator_offset is None:
+            self.terminator_offset = np.full(count, TERMINATOR_GEOMETRY_OFFSET)
+        self.terminator_offset = np.asarray(self.terminator_offset, dtype=np.float64).reshape(-1)
         _validate(self)
         keep = triangle_areas(self.triangles) > 0.0
         self.dropped_triangles = int(count - keep.sum())
@@ -173,6 +180,7 @@ class Scene:
         self.casts_only = self.casts_only[keep]
         self.triangle_uv = self.triangle_uv[keep]
         self.corner_normals = self.corner_normals[keep]
+        self.terminator_offset = self.terminator_offset[keep]
         if not (~self.casts_only).any():
             raise SceneError("Nothing to bake: every triangle has zero area or is 'shadow only'.")
 
@@ -251,9 +259,16 @@ def _validate(scene: Scene) -> None:
     if count == 0:
         raise SceneError("The scene is empty: no triangles to bake.")
     for name, array in (("material_index", scene.material_index), ("object_index", scene.object_index),
-                        ("casts_only", scene.casts_only), ("triangle_uv", scene.triangle_uv)):
+                        ("casts_only", scene.casts_only), ("triangle_uv", scene.triangle_uv),
+                        ("terminator_offset", scene.terminator_offset)):
         if len(array) != count:
             raise SceneError(f"{name} has {len(array)} entries for {count} triangles.")
+    offset = scene.terminator_offset
+    wrong = ~(np.isfinite(offset) & (offset >= 0) & (offset <= 1))
+    if wrong.any():
+        index = int(np.flatnonzero(wrong)[0])
+        raise SceneError(f"Object '{_object_name(scene, index)}': Shadow Terminator Geometry Offset must be in "
+                         f"[0, 1], got {offset[index]}.")
     bad = ~np.isfinite(scene.triangles).all(axis=(1, 2))
     if bad.any():
         raise SceneError(f"Object '{_object_name(scene, int(np.flatnonzero(bad)[0]))}' has NaN or infinite "

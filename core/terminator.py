@@ -5,8 +5,8 @@ a shadow ray from the flat triangle then hits the mesh's own facets, and the ter
 staircase. Cycles (kernel/light/sample.h: shadow_ray_smooth_surface_offset, shadow_ray_offset; Hanika 2021,
 "Hacking the shadow terminator", Ray Tracing Gems II, ch. 4) lifts the origin of such grazing shadow rays onto
 a parabolic surface through the corners, tangent to their normals. We do the same, so a smooth low-poly mesh
-bakes the light Cycles bakes. Cycles' per-object "Shadow Terminator > Geometry Offset" defaults to 0.1; that
-default is used for every object. Applied to the shadow rays towards lamps and emissive patches; the world's
+bakes the light Cycles bakes, with each object's "Shadow Terminator > Geometry Offset" (Blender's default 0.1;
+0 turns it off). Applied to the shadow rays towards lamps and emissive patches; the world's
 rays (which Cycles mostly traces as BSDF samples) still start from the flat triangle. Concave lifts (which would put the origin below
 the triangle, where Cycles skips the triangle itself and we cannot) are left out.
 """
@@ -18,30 +18,31 @@ import numpy as np
 
 from .scene import triangle_unit_normals
 
-GEOMETRY_OFFSET = 0.1
-
 
 @dataclass(frozen=True)
 class ShadowLift:
-    """Per point: ``lift`` (m, 3) to the smooth surface, unit ``shading`` and ``geometric`` normals (m, 3)."""
+    """Per point: ``lift`` (m, 3) to the smooth surface, unit ``shading`` and ``geometric`` normals (m, 3) and
+    the ``cutoff`` (m,), its object's geometry offset."""
 
     lift: np.ndarray
     shading: np.ndarray
     geometric: np.ndarray
+    cutoff: np.ndarray
 
     @classmethod
     def at(cls, scene, scene_triangle: np.ndarray, barycentric: np.ndarray, shading: np.ndarray):
         """The lift at surface points of a core.Scene, or None where every point is on a flat triangle."""
-        triangles = scene.triangles[scene_triangle]
+        triangles, cutoff = scene.triangles[scene_triangle], scene.terminator_offset[scene_triangle]
         lift = smooth_surface_lift(triangles, scene.corner_normals[scene_triangle], barycentric)
-        return cls(lift, shading, triangle_unit_normals(triangles)) if lift.any() else None
+        lift[cutoff <= 0] = 0.0
+        return cls(lift, shading, triangle_unit_normals(triangles), cutoff) if lift.any() else None
 
     def __getitem__(self, rows) -> "ShadowLift":
-        return ShadowLift(self.lift[rows], self.shading[rows], self.geometric[rows])
+        return ShadowLift(self.lift[rows], self.shading[rows], self.geometric[rows], self.cutoff[rows])
 
     def origins(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """(m, s, 3) origins of shadow rays along (m, s, 3) unit directions, lifted (lifted_origins)."""
-        return lifted_origins(origins, directions, self.lift, self.shading, self.geometric)
+        return lifted_origins(origins, directions, self.lift, self.shading, self.geometric, self.cutoff)
 
 
 def smooth_surface_lift(triangles_m: np.ndarray, corner_normals: np.ndarray,
@@ -69,13 +70,13 @@ def smooth_surface_lift(triangles_m: np.ndarray, corner_normals: np.ndarray,
 
 
 def lifted_origins(origins: np.ndarray, directions: np.ndarray, lift: np.ndarray, shading_normals: np.ndarray,
-                   geometric_normals: np.ndarray) -> np.ndarray:
+                   geometric_normals: np.ndarray, cutoff: np.ndarray) -> np.ndarray:
     """(m, s, 3) shadow-ray origins moved by the share of each point's (m, 3) lift that Cycles applies to a ray
     along each (m, s, 3) unit direction: all of it once the direction grazes the flat triangle (its cosine with
-    the geometric normal below GEOMETRY_OFFSET), fading to none above it (shadow_ray_offset)."""
+    the geometric normal below the (m,) cutoff), fading to none above it (shadow_ray_offset)."""
     cos_shading = np.abs(np.einsum("msk,mk->ms", directions, shading_normals))
     cos_geometric = np.einsum("msk,mk->ms", directions, geometric_normals)
-    amount = np.where(cos_shading < GEOMETRY_OFFSET,
-                      np.clip(2.0 - (cos_geometric + cos_shading) / GEOMETRY_OFFSET, 0.0, 1.0),
-                      np.clip(1.0 - cos_geometric / GEOMETRY_OFFSET, 0.0, 1.0))
+    cutoff = np.maximum(cutoff, 1e-12)[:, None]
+    amount = np.where(cos_shading < cutoff, np.clip(2.0 - (cos_geometric + cos_shading) / cutoff, 0.0, 1.0),
+                      np.clip(1.0 - cos_geometric / cutoff, 0.0, 1.0))
     return origins + amount[..., None] * lift[:, None, :]

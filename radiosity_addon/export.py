@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 
 from ..core import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
+from ..core.scene import TERMINATOR_GEOMETRY_OFFSET
 from ..core.bsdf import principled_reflectance
 from ..core.texture import ReflectanceTexture
 
@@ -58,7 +59,7 @@ class Export:
 
 # Per-triangle arrays of a core.Scene, gathered object by object; the first three hold a value per corner.
 CORNER_COLUMNS = ("triangles", "triangle_uv", "corner_normals")
-COLUMNS = CORNER_COLUMNS + ("material_index", "casts_only", "object_index")
+COLUMNS = CORNER_COLUMNS + ("material_index", "casts_only", "object_index", "terminator_offset")
 
 
 def export_scene(context) -> Export:
@@ -91,7 +92,8 @@ def export_scene(context) -> Export:
             first_triangle=sum(len(t) for t in columns["triangles"]), triangle_count=count, corner_loops=loops,
             corner_vertices=vertices, writable=writable, same_topology=_same_topology(evaluated, original)))
         names.append(name)
-        part.update(casts_only=np.full(count, mode == "SHADOW_ONLY"), object_index=np.full(count, len(names) - 1))
+        part.update(casts_only=np.full(count, mode == "SHADOW_ONLY"), object_index=np.full(count, len(names) - 1),
+                    terminator_offset=np.full(count, _terminator_offset(original)))
         for key, value in part.items():
             columns[key].append(value)
     if objects:
@@ -118,6 +120,15 @@ def _add_emitter_backs(columns: dict, names: list[str], materials: list[Material
     flipped["object_index"] = np.full(int(back.sum()), len(names) - 1)
     for key, value in flipped.items():
         columns[key].append(value)
+
+
+def _terminator_offset(obj) -> float:
+    """The object's Shadow Terminator Geometry Offset (Object properties > Shading): on its Cycles settings in
+    Blender 4.2, on the object itself in Blender 5."""
+    for owner in (obj, getattr(obj, "cycles", None)):
+        if hasattr(owner, "shadow_terminator_geometry_offset"):
+            return float(owner.shadow_terminator_geometry_offset)
+    return TERMINATOR_GEOMETRY_OFFSET
 
 
 def _mode(obj) -> str:

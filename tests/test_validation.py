@@ -30,6 +30,12 @@ def test_infinite_vertex_names_the_object():
         make(bad)
 
 
+@pytest.mark.parametrize("offset", [-0.1, 1.5, np.nan])
+def test_shadow_terminator_offset_outside_zero_one_names_the_object(offset):
+    with pytest.raises(SceneError, match="Object 'Plane'.*Shadow Terminator Geometry Offset"):
+        make(terminator_offset=[0.1, offset])
+
+
 @pytest.mark.parametrize("reflectance", [(1.0, 0.5, 0.5), (0.5, 1.2, 0.5), (-0.1, 0.5, 0.5)])
 def test_reflectance_outside_zero_one_names_the_material(reflectance):
     with pytest.raises(SceneError, match="Material 'Brick'.*reflectance"):
