@@ -31,7 +31,8 @@ class ShadowLift:
 
     @classmethod
     def at(cls, scene, scene_triangle: np.ndarray, barycentric: np.ndarray, shading: np.ndarray):
-        """The lift at surface points of a core.Scene, or None where every point is on a flat triangle."""
+        """The lift at surface points of a core.Scene, or None when every point is on a flat triangle or on an
+        object whose offset is 0."""
         triangles, cutoff = scene.triangles[scene_triangle], scene.terminator_offset[scene_triangle]
         lift = smooth_surface_lift(triangles, scene.corner_normals[scene_triangle], barycentric)
         lift[cutoff <= 0] = 0.0
