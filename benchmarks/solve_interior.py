@@ -32,7 +32,8 @@ def run_one(element_size: float, patch_size: float, method: str, threshold: floa
                                         residual_threshold=threshold))
     seconds = time.perf_counter() - started
     return {"element_size_m": element_size, "elements": solution.element_count,
-            "patches": len(solution.state.patches.area_m2), "seconds": seconds, "rays": solution.rays_cast,
+            "patches": len(solution.state.patches.area_m2), "seconds": seconds,
+            "near_field_seconds": solution.seconds.get("near field", 0.0), "rays": solution.rays_cast,
             "shots": solution.history[-1].shots, "residual": solution.residual,
             "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
@@ -76,11 +77,13 @@ def main() -> None:
     print(f"Interior scene, {args.method} form factors, patch size {args.patch} m, residual threshold "
           f"{args.threshold}; raw embreex (random occlusion rays): {threaded / 1e6:.2f} M rays/s on all cores, "
           f"{single / 1e6:.2f} M rays/s on one core\n")
-    print("| elements | patches | shots | seconds | rays cast | M rays/s | of raw (all cores) | peak RSS MB | residual |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("| elements | patches | shots | seconds | of which near field | rays cast | M rays/s | of raw (all cores) "
+          "| peak RSS MB | residual |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         rate = r["rays"] / r["seconds"]
-        print(f"| {r['elements']} | {r['patches']} | {r['shots']} | {r['seconds']:.1f} | {r['rays'] / 1e6:.1f} M "
+        print(f"| {r['elements']} | {r['patches']} | {r['shots']} | {r['seconds']:.1f} | {r['near_field_seconds']:.1f} "
+              f"| {r['rays'] / 1e6:.1f} M "
               f"| {rate / 1e6:.2f} | {rate / threaded:.0%} | {r['peak_rss_mb']:.0f} | {r['residual']:.4f} |")
     base = rows[0]
     print("\nScaling against the smallest size: " + ", ".join(

@@ -14,6 +14,7 @@ from . import adaptive
 from .direct import DirectLighting
 from .lights import direct_irradiance
 from .mesh import build_mesh, bury, elements_of
+from .nearfield import near_field_irradiance
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .raycast import RayCaster
 from .scene import Scene, SceneError
@@ -106,6 +107,8 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
         state = refined
         _solve(state, factors, settings, caster, progress, cancelled)
         timer.lap(f"adaptive pass {number + 1}")
+    _near_field(state, settings, caster, offset, progress, cancelled)
+    timer.lap("near field")
     emission = patch_mean(state.elements.emitted_exitance, state.elements, patches)
     direct = DirectLighting(scene, caster, patches, emission, offset, settings.light_samples_per_edge, settings.seed)
     # The light the unshot residual would still bring, spread evenly (the ambient term), so an early stop does
@@ -133,6 +136,19 @@ def _solve(state, factors, settings, caster, progress, cancelled):
     else:
         solve_progressive(state, factors, settings.residual_threshold, settings.max_shots,
                           lambda: caster.rays_cast, progress, cancelled)
+
+
+def _near_field(state, settings, caster, offset, progress, cancelled):
+    """Add the element-to-element light of near, unevenly lit patches (core.nearfield) to the solved irradiance.
+
+    What the correction changes in a patch's mean radiosity becomes unshot radiosity, which the ambient term
+    spreads (a re-solve would re-gather from the patches and drop the correction)."""
+    progress(0.0, f"Near-field links of {len(state.elements.node)} elements")
+    radiosity = state.radiosity
+    patch_radiosity = patch_mean(radiosity, state.elements, state.patches)
+    state.irradiance = state.irradiance + near_field_irradiance(
+        caster, state.elements, state.patches, radiosity, patch_radiosity, state.irradiance,
+        settings.visibility_samples_per_edge, offset, cancelled)
 
 
 def _refine(mesh, scene, state, caster, factors, criteria, offset, settings, cancelled):
