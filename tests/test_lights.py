@@ -165,6 +165,17 @@ def octagonal_prism_smooth():
     return triangles, normals
 
 
+def random_prism_points(scene, prism_triangles, count):
+    """(triangle, barycentric, point, shading normal) at ``count`` uniform random points on the prism's faces."""
+    rng = np.random.default_rng(1)
+    triangle = rng.integers(0, prism_triangles, count)
+    uv = rng.random((count, 2))
+    uv = np.where(uv.sum(axis=1, keepdims=True) > 1, 1 - uv, uv)
+    barycentric = np.column_stack([1 - uv.sum(axis=1), uv])
+    points = np.einsum("mc,mck->mk", barycentric, scene.triangles[triangle])
+    return triangle, barycentric, points, scene.shading_normals(triangle, barycentric)
+
+
 def test_a_smooth_low_poly_cylinder_is_lit_like_the_cylinder_its_normals_describe():
     """Sunlight across the axis of a smooth-shaded octagonal prism: every point gets E = S max(0, n_s . l), n_s
     its interpolated shading normal, as on a true cylinder (exact to rounding, 4000 random points). Shadow rays
@@ -176,13 +187,7 @@ def test_a_smooth_low_poly_cylinder_is_lit_like_the_cylinder_its_normals_describ
     direction = np.array([-1.0, -0.3, 0.0]) / np.linalg.norm([-1.0, -0.3, 0.0])
     scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey")],
                   lights=[SunLight("sun", tuple(direction), strength_w_m2=3.0)], corner_normals=normals)
-    rng = np.random.default_rng(1)
-    triangle = rng.integers(0, len(triangles), 4000)
-    uv = rng.random((4000, 2))
-    uv = np.where(uv.sum(axis=1, keepdims=True) > 1, 1 - uv, uv)
-    barycentric = np.column_stack([1 - uv.sum(axis=1), uv])
-    points = np.einsum("mc,mck->mk", barycentric, scene.triangles[triangle])
-    shading = scene.shading_normals(triangle, barycentric)
+    triangle, barycentric, points, shading = random_prism_points(scene, len(triangles), 4000)
     expected = 3.0 * np.maximum(shading @ -direction, 0.0)
     caster = RayCaster(scene.triangles)
     flat = direct_irradiance(scene, caster, points, shading, 1e-5, 1, seed=0)[:, 0]
@@ -206,13 +211,7 @@ def test_a_smooth_low_poly_cylinder_lit_by_an_emissive_panel_gets_the_panel_s_cl
                   [Material("grey"), Material("glow", (0.0,) * 3, (1.0,) * 3)],
                   corner_normals=np.concatenate([normals, np.broadcast_to([1.0, 0.0, 0.0], (2, 3, 3))]))
     direct = bake(scene, BakeSettings(patch_size_m=2.0, element_size_m=1.0, adaptive_passes=0)).direct
-    rng = np.random.default_rng(1)
-    triangle = rng.integers(0, len(triangles), 3000)
-    uv = rng.random((3000, 2))
-    uv = np.where(uv.sum(axis=1, keepdims=True) > 1, 1 - uv, uv)
-    barycentric = np.column_stack([1 - uv.sum(axis=1), uv])
-    points = np.einsum("mc,mck->mk", barycentric, scene.triangles[triangle])
-    shading = scene.shading_normals(triangle, barycentric)
+    triangle, barycentric, points, shading = random_prism_points(scene, len(triangles), 3000)
     outline = np.broadcast_to([panel[0, 0], panel[0, 1], panel[0, 2], panel[1, 2]], (3000, 4, 3)).copy()
     expected = np.pi * point_to_polygon(points, shading, outline)
     smooth = direct.irradiance(points, shading, lift=ShadowLift.at(scene, triangle, barycentric, shading))[:, 0]
