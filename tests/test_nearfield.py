@@ -1,4 +1,4 @@
-"""Near-field link refinement (core.nearfield) against Lambert's closed form for a point over a rectangle."""
+"""Near-field link refinement (core.nearfield) against the closed form for a point over a parallel rectangle."""
 import numpy as np
 
 from core import BakeSettings, Material, Scene, SunLight, bake
@@ -43,7 +43,7 @@ def half_lit_floor():
 
 def test_receiver_over_a_shadow_edge_sees_the_lit_half_not_the_patch_mean():
     # The floor is two triangle patches, each part lit, part shadowed. Sent as patch means, the receiver would
-    # get about rho S / 2 F(floor); element by element it gets rho S F(point -> lit half), Lambert's closed form.
+    # get about rho S / 2 F(floor); element by element it gets rho S F(point -> lit half), Howell's closed form.
     # Exact: the floor elements split at the shadow edge, and nothing occludes the receiver.
     scene, receiver_triangle = half_lit_floor()
     solution = bake(scene, BakeSettings(patch_size_m=4.0, element_size_m=0.25, residual_threshold=1e-4))
