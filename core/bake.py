@@ -148,7 +148,7 @@ def _near_field(state, settings, caster, offset, progress, cancelled):
     patch_radiosity = patch_mean(radiosity, state.elements, state.patches)
     state.irradiance = state.irradiance + near_field_irradiance(
         caster, state.elements, state.patches, radiosity, patch_radiosity, state.irradiance,
-        settings.visibility_samples_per_edge, offset, cancelled)
+        settings.visibility_samples_per_edge, offset, progress, cancelled)
 
 
 def _refine(mesh, scene, state, caster, factors, criteria, offset, settings, cancelled):

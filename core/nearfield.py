@@ -25,7 +25,7 @@ import numpy as np
 
 from .formfactor import point_to_polygon, triangle_samples, visible_fraction
 from .mesh import Elements
-from .progress import BakeCancelled, never_cancelled
+from .progress import BakeCancelled, Progress, never_cancelled, no_progress
 from .raycast import RayCaster
 from .shooting import Patches
 
@@ -37,7 +37,8 @@ PAIRS_PER_CHUNK = 1 << 16
 
 def near_field_irradiance(caster: RayCaster, elements: Elements, patches: Patches, radiosity: np.ndarray,
                           patch_radiosity: np.ndarray, irradiance: np.ndarray, samples_per_edge: int,
-                          offset_m: float, cancelled=never_cancelled) -> np.ndarray:
+                          offset_m: float, progress: Progress = no_progress,
+                          cancelled=never_cancelled) -> np.ndarray:
     """(n, 3) irradiance correction dH_e, W m^-2, for the elements' near links to varying patches.
 
     ``radiosity`` (n, 3) is each element's B, ``patch_radiosity`` (P, 3) what each patch sent (its mean of B),
@@ -51,6 +52,7 @@ def near_field_irradiance(caster: RayCaster, elements: Elements, patches: Patche
     for first in range(0, len(receiver), links_per_chunk):
         if cancelled():
             raise BakeCancelled("Bake cancelled while linking near elements.")
+        progress(first / len(receiver), f"Near-field links: {len(receiver)} element-patch links refined")
         chunk = slice(first, first + links_per_chunk)
         e, k = _element_pairs(elements, receiver[chunk], patch[chunk], *members)
         factors = _element_form_factors(caster, elements, e, k, samples_per_edge, offset_m)

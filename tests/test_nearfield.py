@@ -1,7 +1,8 @@
 """Near-field link refinement (core.nearfield) against the closed form for a point over a parallel rectangle."""
 import numpy as np
+import pytest
 
-from core import BakeSettings, Material, Scene, SunLight, bake
+from core import BakeCancelled, BakeSettings, Material, Scene, SunLight, bake
 from shapes import quad
 
 FLOOR_REFLECTANCE = 0.5
@@ -55,3 +56,14 @@ def test_receiver_over_a_shadow_edge_sees_the_lit_half_not_the_patch_mean():
     patch_means = FLOOR_REFLECTANCE / 2 * rectangle_factor(centroids, -1, 1, -1, 1)
     assert np.all(np.abs(patch_means - expected) > 0.4 * expected)  # the test tells the two apart
     np.testing.assert_allclose(measured, expected[:, None].repeat(3, axis=1), rtol=1e-3)
+
+
+def test_esc_while_linking_near_elements_cancels_the_bake():
+    scene, _ = half_lit_floor()
+    stage = {"message": ""}
+
+    def progress(fraction, message):
+        stage["message"] = message
+    with pytest.raises(BakeCancelled, match="linking near elements"):
+        bake(scene, BakeSettings(patch_size_m=4.0, element_size_m=0.25), progress,
+             cancelled=lambda: stage["message"].startswith("Near-field"))
