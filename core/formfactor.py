@@ -6,6 +6,7 @@
   side faces dF = z dA / (pi (y^2 + z^2 + 1)^2); one Embree ray per pixel centre replaces the z-buffer.
 - ``visible_fraction``: share of stratified points on a triangle visible from each receiver point
   (Wallace et al. 1989: ray-traced visibility between a receiver point and a source).
+- ``point_to_triangle_with_visibility``: the two together, the ray-cast form factor of patches and elements.
 """
 from __future__ import annotations
 
@@ -107,6 +108,18 @@ def visible_fraction(caster: RayCaster, points: np.ndarray, normals: np.ndarray,
     blocked = caster.occluded(origins.reshape(-1, 3), direction.reshape(-1, 3), distance.ravel())
     visible = weight * ~blocked.reshape(weight.shape)
     return visible.sum(axis=1) / weight.sum(axis=1)
+
+
+def point_to_triangle_with_visibility(caster: RayCaster, points: np.ndarray, normals: np.ndarray,
+                                      corners: np.ndarray, samples: np.ndarray, source_normals: np.ndarray,
+                                      offset_m: float, lift=None) -> np.ndarray:
+    """(m,) F(point -> triangle): Lambert's contour formula times the visible share of the triangle's stratified
+    ``samples`` (m, s, 3); shadow rays only where the formula is positive. ``lift``: as in visible_fraction."""
+    factors = point_to_polygon(points, normals, corners)
+    seen = np.flatnonzero(factors > 0)
+    factors[seen] *= visible_fraction(caster, points[seen], normals[seen], samples[seen], source_normals[seen],
+                                      offset_m, offset_m, None if lift is None else lift[seen])
+    return factors
 
 
 def triangle_samples(triangles: np.ndarray, samples_per_edge: int) -> np.ndarray:

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .formfactor import point_to_polygon, triangle_samples, visible_fraction
+from .formfactor import point_to_polygon, point_to_triangle_with_visibility, triangle_samples
 from .mesh import Elements
 from .progress import BakeCancelled, Progress, never_cancelled, no_progress
 from .raycast import RayCaster
@@ -123,10 +123,6 @@ def _exposed_members(elements: Elements, patch_count: int) -> tuple[np.ndarray, 
 def _element_form_factors(caster: RayCaster, elements: Elements, receiver: np.ndarray, source: np.ndarray,
                           samples_per_edge: int, offset_m: float) -> np.ndarray:
     """F(e -> k) for (receiver e, source k) pairs: point-to-polygon at e's centroid x visible share of k."""
-    centroid, normal = elements.centroid[receiver], elements.normal[receiver]
-    factors = point_to_polygon(centroid, normal, elements.corners[source])
-    seen = np.flatnonzero(factors > 0)
-    factors[seen] *= visible_fraction(caster, centroid[seen], normal[seen],
-                                      triangle_samples(elements.corners[source[seen]], samples_per_edge),
-                                      elements.normal[source[seen]], offset_m, offset_m)
-    return factors
+    return point_to_triangle_with_visibility(
+        caster, elements.centroid[receiver], elements.normal[receiver], elements.corners[source],
+        triangle_samples(elements.corners[source], samples_per_edge), elements.normal[source], offset_m)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .formfactor import hemicube_item_buffer, point_to_polygon, triangle_samples, visible_fraction
+from .formfactor import hemicube_item_buffer, point_to_triangle_with_visibility, triangle_samples
 from .mesh import ElementMesh, Elements
 from .raycast import RayCaster
 from .scene import triangle_areas, triangle_unit_normals
@@ -57,12 +57,10 @@ class RayCastRows:
                                                                    patch_normal)
         receiver, column = np.nonzero((height > 0) & (receivers.patch[:, None] != patches[None, :]))
         patch = patches[column]
-        centroid, normal = receivers.centroid[receiver], receivers.normal[receiver]
-        values = point_to_polygon(centroid, normal, self.patches.corners[patch])
-        seen = np.flatnonzero(values > 0)
-        values[seen] *= visible_fraction(self.caster, centroid[seen], normal[seen], self._samples[patch[seen]],
-                                         self.patches.normal[patch[seen]], self.offset_m, self.offset_m,
-                                         None if lift is None else lift[receiver[seen]])
+        values = point_to_triangle_with_visibility(
+            self.caster, receivers.centroid[receiver], receivers.normal[receiver], self.patches.corners[patch],
+            self._samples[patch], self.patches.normal[patch], self.offset_m,
+            None if lift is None else lift[receiver])
         factors = np.zeros((len(receivers.node), len(patches)))
         factors[receiver, column] = values
         return factors
