@@ -14,9 +14,10 @@ light element by element, as a correction to what the patch already sent:
     dH_e = sum_{k in j} F(e -> k) (B_k - mean_j(B))
 
 with F(e -> k) by ray casting (Lambert's point-to-polygon factor at e's centroid times the visible share of
-stratified points on k: the same estimator as core.shooting.RayCastRows). The correction vanishes for an evenly lit
-patch, so only links whose patch varies need it. "Near": e's centroid lies within ``NEAR_RADII`` bounding radii of
-the patch's centroid, where the patch subtends a large form factor (a facing disc at 3 radii: F = 0.1).
+stratified points on k: formfactor.point_to_triangle_with_visibility, as for the patch rows). The correction
+vanishes for an evenly lit patch, so only links whose patch varies need it. "Near": e's centroid lies within
+``NEAR_RADII`` bounding radii of the patch's centroid, where the patch subtends a large form factor (a facing disc
+at 3 radii: F = 0.1).
 "Varying": some exposed element of the patch differs from the patch mean by more than ``VARIATION`` of it.
 """
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 from .formfactor import point_to_polygon, point_to_triangle_with_visibility, triangle_samples
 from .mesh import Elements
 from .progress import BakeCancelled, Progress, never_cancelled, no_progress
+from .ragged import concatenated_ranges
 from .raycast import RayCaster
 from .shooting import Patches
 
@@ -85,7 +87,7 @@ def _element_pairs(elements: Elements, receiver: np.ndarray, patch: np.ndarray, 
     of its patch (``order``, ``start``, ``count`` from _exposed_members) in front of the receiver's plane."""
     size = count[patch]
     receiver = np.repeat(receiver, size)
-    source = order[np.repeat(start[patch], size) + np.arange(size.sum()) - np.repeat(np.cumsum(size) - size, size)]
+    source = order[np.repeat(start[patch], size) + concatenated_ranges(size)]
     facing = np.einsum("mk,mk->m", elements.centroid[source] - elements.centroid[receiver],
                        elements.normal[receiver]) > 0
     return receiver[facing], source[facing]

@@ -16,6 +16,7 @@ import numpy as np
 
 from .direct import DirectLighting
 from .mesh import ElementMesh, weld_vertices
+from .ragged import concatenated_ranges
 from .scene import Scene
 from .terminator import ShadowLift
 from .solver import ConvergenceStep, RadiosityState
@@ -89,7 +90,7 @@ class Solution:
         start_of = np.repeat(group_start, group_size)
         # Every (corner, element) pair around the same vertex: the corner's element and each partner element.
         corner = np.repeat(order, size_of)
-        partner = owner[order[np.repeat(start_of, size_of) + _ranges(size_of)]]
+        partner = owner[order[np.repeat(start_of, size_of) + concatenated_ranges(size_of)]]
         mine = owner[corner]
         smooth = (elements.normal[mine] * elements.normal[partner]).sum(axis=1) >= np.cos(SMOOTH_ANGLE_RAD)
         # With exposed_weight, a tiny share of the area keeps a corner that only buried elements share defined.
@@ -188,9 +189,3 @@ class Solution:
         """The element mesh with its light: (V, 3) vertices, (n, 3) triangles, (n, 3, 3) corner light."""
         vertices, corner_vertex = weld_vertices(self.mesh, self.state.elements.node, self.weld_tolerance_m)
         return vertices, corner_vertex, self.corner_light()
-
-
-def _ranges(sizes: np.ndarray) -> np.ndarray:
-    """Concatenation of arange(s) for each s in sizes."""
-    ends = np.cumsum(sizes)
-    return np.arange(ends[-1] if len(ends) else 0) - np.repeat(ends - sizes, sizes)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .formfactor import tangent_frames
+from .ragged import concatenated_ranges
 from .raycast import RayCaster
 from .scene import triangle_unit_normals
 
@@ -79,8 +80,7 @@ def _chunks(counts: np.ndarray, budget: int):
 def _candidates(corners, lower, extent, counts, start, stop, width):
     """Texels in each triangle's bounding box (grown by half a texel) with their nearest point and distance."""
     triangle = np.repeat(np.arange(start, stop), counts[start:stop])
-    within = np.arange(len(triangle)) - np.repeat(np.cumsum(counts[start:stop]) - counts[start:stop],
-                                                   counts[start:stop])
+    within = concatenated_ranges(counts[start:stop])
     span = extent[triangle, 0]
     x = lower[triangle, 0] + within % np.maximum(span, 1)
     y = lower[triangle, 1] + within // np.maximum(span, 1)
