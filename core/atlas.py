@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import SceneError, triangle_areas
+from .geometry import triangle_areas
+from .scene import SceneError
 from .texels import rasterize
 
 OVERLAP_TOLERANCE = 0.01  # share of an object's texel centres that may fall on another object's

@@ -14,6 +14,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .geometry import tangent_frames, triangle_sample_barycentrics
 from .raycast import RayCaster
 
 _TINY = 1e-300
@@ -71,13 +72,6 @@ def _contour_sum(rel: np.ndarray, normals: np.ndarray) -> np.ndarray:
     beta = np.arctan2(sin_beta, x * x2 + y * y2 + z * z2)
     projected = cx * normals[:, :1] + cy * normals[:, 1:2] + cz * normals[:, 2:3]
     return np.abs((beta * projected / np.maximum(sin_beta, _TINY)).sum(axis=1)) / (2.0 * np.pi)
-
-
-@lru_cache(maxsize=8)
-def triangle_sample_barycentrics(samples_per_edge: int) -> np.ndarray:
-    """(s^2, 3) stratified barycentric points: the centroids of a uniform s x s subdivision."""
-    from .mesh import uniform_subdivision
-    return uniform_subdivision(samples_per_edge).mean(axis=1)
 
 
 def visible_fraction(caster: RayCaster, points: np.ndarray, normals: np.ndarray, targets: np.ndarray,
@@ -147,14 +141,6 @@ def hemicube_delta_form_factors(resolution: int) -> tuple[np.ndarray, np.ndarray
     directions = np.concatenate([top_dirs] + sides)
     weights = np.concatenate([top_df] + [side_df] * 4)
     return directions / np.linalg.norm(directions, axis=1, keepdims=True), weights
-
-
-def tangent_frames(normals: np.ndarray) -> np.ndarray:
-    """(m, 3, 3) orthonormal frames whose rows are tangent, bitangent and the unit normal."""
-    helper = np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
-    tangent = np.cross(helper, normals)
-    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
-    return np.stack([tangent, np.cross(normals, tangent), normals], axis=1)
 
 
 def hemicube_item_buffer(caster: RayCaster, origins: np.ndarray, normals: np.ndarray, resolution: int,

@@ -16,10 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .formfactor import tangent_frames
+from .geometry import tangent_frames, triangle_unit_normals
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
-from .scene import triangle_unit_normals
 
 RAYS_PER_CHUNK = 1 << 20
 

@@ -13,7 +13,8 @@ import numpy as np
 
 from .gather import final_gather
 from .progress import BakeCancelled, Progress, Timer, never_cancelled, no_progress
-from .scene import SceneError, triangle_areas
+from .geometry import triangle_areas
+from .scene import SceneError
 from .texels import (Texels, face_to_face_contact, inset, inside_closed_geometry, push_out_of_geometry, rasterize,
                      sample_points, subtexel_barycentrics)
 

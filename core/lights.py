@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .formfactor import point_to_polygon, tangent_frames, visible_fraction
+from .formfactor import point_to_polygon, visible_fraction
+from .geometry import tangent_frames
 from .raycast import RayCaster
 from .sampling import concentric_disk, cosine_hemisphere, stratified_square
 from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight

@@ -13,12 +13,12 @@ element mesh has no geometric cracks.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from functools import lru_cache
 
 import numpy as np
 
+from .geometry import triangle_areas, triangle_unit_normals, uniform_subdivision
 from .raycast import RayCaster
-from .scene import Scene, triangle_areas, triangle_unit_normals
+from .scene import Scene
 from .texels import inside_closed_geometry
 
 # Children of a 4-way split of (a, b, c), as barycentric combinations of the parent's corners:
@@ -29,24 +29,6 @@ _SPLIT = np.array([
     [[.5, 0, .5], [0, .5, .5], [0, 0, 1]],
     [[.5, .5, 0], [0, .5, .5], [.5, 0, .5]],
 ])
-
-
-@lru_cache(maxsize=64)
-def uniform_subdivision(k: int) -> np.ndarray:
-    """(k^2, 3, 3) barycentric corners of a triangle cut into k x k similar triangles.
-
-    With u, v the 2nd and 3rd barycentrics on a grid of step 1/k: the k(k+1)/2 "up" triangles
-    (i, j), (i+1, j), (i, j+1) come first (i + j <= k - 1), then the k(k-1)/2 "down" triangles.
-    """
-    i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
-    up = (i + j <= k - 1)
-    down = (i + j <= k - 2)
-    iu, ju, idn, jdn = i[up], j[up], i[down], j[down]
-    uv = np.concatenate([
-        np.stack([np.stack([iu, ju], -1), np.stack([iu + 1, ju], -1), np.stack([iu, ju + 1], -1)], 1),
-        np.stack([np.stack([idn + 1, jdn], -1), np.stack([idn + 1, jdn + 1], -1), np.stack([idn, jdn + 1], -1)], 1),
-    ]) / k
-    return np.concatenate([1.0 - uv.sum(-1, keepdims=True), uv], axis=-1)
 
 
 def locate_uniform(k: np.ndarray, barycentric: np.ndarray) -> np.ndarray:

@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .geometry import triangle_areas, triangle_unit_normals
+
 RGB = tuple[float, float, float]
 TERMINATOR_GEOMETRY_OFFSET = 0.1  # Blender's default for an object's Shadow Terminator Geometry Offset
 
@@ -226,18 +228,6 @@ class Scene:
         """Diagonal of the scene's bounding box in metres (sets ray offsets)."""
         points = self.triangles.reshape(-1, 3)
         return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
-
-
-def triangle_areas(triangles: np.ndarray) -> np.ndarray:
-    """Areas of (..., 3, 3) triangles, m^2."""
-    cross = np.cross(triangles[..., 1, :] - triangles[..., 0, :], triangles[..., 2, :] - triangles[..., 0, :])
-    return 0.5 * np.linalg.norm(cross, axis=-1)
-
-
-def triangle_unit_normals(triangles: np.ndarray) -> np.ndarray:
-    """Unit normals of (..., 3, 3) triangles (right-handed winding); zero for degenerate ones."""
-    normal = np.cross(triangles[..., 1, :] - triangles[..., 0, :], triangles[..., 2, :] - triangles[..., 0, :])
-    return normal / np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-300)
 
 
 def _unit_corner_normals(triangles: np.ndarray, corner_normals) -> np.ndarray:

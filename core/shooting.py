@@ -19,7 +19,7 @@ import numpy as np
 from .formfactor import hemicube_item_buffer, point_to_triangle_with_visibility, triangle_samples
 from .mesh import ElementMesh, Elements
 from .raycast import RayCaster
-from .scene import triangle_areas, triangle_unit_normals
+from .geometry import triangle_areas, triangle_unit_normals
 
 
 @dataclass

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import triangle_unit_normals
+from .geometry import triangle_unit_normals
 
 
 @dataclass(frozen=True)

@@ -15,10 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .formfactor import tangent_frames
+from .geometry import tangent_frames, triangle_unit_normals
 from .ragged import concatenated_ranges
 from .raycast import RayCaster
-from .scene import triangle_unit_normals
 
 CONSERVATIVE_REACH_TEXELS = 0.5 * np.sqrt(2.0)
 CANDIDATES_PER_CHUNK = 4_000_000

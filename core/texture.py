@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .formfactor import triangle_sample_barycentrics
+from .geometry import triangle_sample_barycentrics
 
 FOOTPRINT_SAMPLES_PER_EDGE = 4
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core import SceneError
 from ..core.atlas import AtlasLayout, layout_atlas, overlapping_share, pages_without_overlap
-from ..core.scene import triangle_areas
+from ..core.geometry import triangle_areas
 from .export import Export, ExportedObject, loop_triangles, world_positions
 
 OWNED_UV = "radiosity_lightmap_uv"

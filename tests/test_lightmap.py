@@ -8,7 +8,7 @@ from core.atlas import layout_atlas, pack_blocks, pages_without_overlap
 import core.lightmap
 from core.lightmap import LightmapSettings, bake_lightmap, dilate
 from core.progress import BakeCancelled
-from core.scene import triangle_unit_normals
+from core.geometry import triangle_unit_normals
 from core.texels import rasterize
 from shapes import box_faces, quad
 

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from core import BakeSettings, Material, PointLight, Scene, SceneError, SunLight, bake
-from core.mesh import build_mesh, elements_of, locate_uniform, uniform_subdivision, weld_vertices
-from core.scene import triangle_areas
+from core.geometry import triangle_areas, uniform_subdivision
+from core.mesh import build_mesh, elements_of, locate_uniform, weld_vertices
 from core.texture import ReflectanceTexture
 from shapes import box_faces, quad
 

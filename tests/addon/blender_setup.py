@@ -133,7 +133,7 @@ def uv_coverage(objects, uv_map: str, width: int, height: int) -> np.ndarray:
     EDGE_MARGIN_TEXELS from its edges: what Cycles bakes on the same triangle as we do. (xatlas puts chart
     borders through texel centres, which Cycles' rasteriser may leave to neither side, and a centre on an edge
     inside a chart may go to the triangle on the other side, a differently lit face.)"""
-    from radiosity_baker.core.scene import triangle_areas
+    from radiosity_baker.core.geometry import triangle_areas
     from radiosity_baker.core.texels import rasterize
     covered = np.zeros(width * height, dtype=bool)
     for obj in objects:
