@@ -1,7 +1,13 @@
-"""The pipeline: Scene -> patches and elements -> direct light -> radiosity solve -> adaptive passes -> Solution.
+"""The pipeline: Scene -> elements -> direct light -> radiosity solve -> Solution.
 
 ``bake(scene, settings, progress, cancelled)`` is the one entry point the add-on, the command line and the tests
-call. Everything is deterministic for a given scene, settings and seed.
+call. Everything is deterministic for a given scene, settings and seed. Two families of solvers:
+
+- "hierarchical" (default, any scene size): face-cluster elements independent of the triangle count, two-sided,
+  linked hierarchically to a cluster tree (core.clusters, core.cluster_tree, core.links, core.hierarchical);
+- "progressive" and "direct" (the classic methods, for small scenes): every receiving triangle is cut into
+  patches and elements (core.mesh), with ray-cast or hemicube form-factor rows, adaptive meshing and near-field
+  links (core.shooting, core.solver, core.adaptive, core.nearfield).
 """
 from __future__ import annotations
 
@@ -11,40 +17,52 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from . import adaptive
+from .cluster_tree import build_tree
+from .clusters import cluster_pieces
 from .direct import DirectLighting
+from .hierarchical import HierarchicalState, Receivers, node_deviation, sample_exposure, solve
 from .lights import direct_irradiance
-from .mesh import build_mesh, bury, elements_of
+from .links import OPENING, LinkSources, build_links, covered_share, refine_links
+from .mesh import build_mesh, bury, elements_of, node_reflectance
 from .nearfield import near_field_irradiance
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .raycast import RayCaster
-from .scene import Scene, SceneError
+from .scene import MAX_REFLECTANCE, Scene, SceneError
 from .shooting import HemicubeRows, Patches, RayCastRows
-from .solution import Solution
+from .solution import FRONT, SolvedElements, Solution
 from .solver import FormFactors, RadiosityState, patch_mean, solve_direct, solve_progressive
 
 RAY_OFFSET_FRACTION = 2e-5
+REFINEMENT_TOLERANCE = 0.03  # a link is refined where its error bound exceeds 3% of the receiver's irradiance
+ROUGH_RESIDUAL = 0.05  # the solve before link refinement stops here (or at the residual threshold if looser)
+SOLVERS = ("hierarchical", "progressive", "direct")
 
 
 @dataclass(frozen=True)
 class BakeSettings:
     """Settings of a bake; lengths in metres.
 
-    patch_size_m / element_size_m: target edge lengths of shooting patches and receiving elements.
-    form_factors: "raycast" (analytic x shadow rays, default) or "hemicube".
-    solver: "progressive" (default) or "direct" (Gaussian elimination, small scenes).
-    visibility_samples_per_edge: s, so s^2 shadow rays per element-patch pair (ray-cast form factors).
+    element_size_m: target edge length of receiving elements.
+    patch_size_m: of the classic solvers' shooting patches, and of the pieces emissive surfaces are sampled by.
+    solver: "hierarchical" (default), "progressive" or "direct" (Gaussian elimination, small scenes).
+    form_factors: "raycast" (analytic x shadow rays, default) or "hemicube" (classic solvers only).
+    opening: a cluster is linked as a whole when its half diagonal is below this share of its distance
+        (hierarchical solver; smaller is more accurate and slower).
+    visibility_samples_per_edge: s, so s^2 shadow rays per link to a one-piece element or per element-patch pair.
     hemicube_resolution: pixels across the hemicube's top face.
     light_samples_per_edge: s, so s^2 shadow rays per element and soft light (area, sized point, sun angle, world).
-    residual_threshold: stop shooting when unshot / injected power falls below it.
-    adaptive_passes, adaptive_threshold, min_element_size_m: adaptive meshing (see core.adaptive).
-    form_factor_memory_mb: memory for the element-to-patch form-factor matrix; over it, rows are recomputed
-        when needed (memory then stays O(n + P^2)).
+    residual_threshold: stop when the unshot (or still changing) power falls below this share of the injected.
+    max_shots: the most shots (progressive) or iterations (hierarchical).
+    adaptive_passes, adaptive_threshold, min_element_size_m: adaptive meshing (classic solvers, core.adaptive).
+    form_factor_memory_mb: memory for the classic element-to-patch form-factor matrix; over it, rows are
+        recomputed when needed (memory then stays O(n + P^2)).
     """
 
     patch_size_m: float = 0.5
     element_size_m: float = 0.125
     form_factors: str = "raycast"
-    solver: str = "progressive"
+    solver: str = "hierarchical"
+    opening: float = OPENING
     visibility_samples_per_edge: int = 2
     hemicube_resolution: int = 128
     light_samples_per_edge: int = 4
@@ -58,9 +76,9 @@ class BakeSettings:
     threads: int = 0
 
     def __post_init__(self):
-        positive = ("patch_size_m", "element_size_m", "visibility_samples_per_edge", "hemicube_resolution",
-                    "light_samples_per_edge", "residual_threshold", "max_shots", "adaptive_threshold",
-                    "min_element_size_m")
+        positive = ("patch_size_m", "element_size_m", "opening", "visibility_samples_per_edge",
+                    "hemicube_resolution", "light_samples_per_edge", "residual_threshold", "max_shots",
+                    "adaptive_threshold", "min_element_size_m")
         for name in positive:
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
@@ -70,9 +88,11 @@ class BakeSettings:
                 raise SceneError(f"Setting '{name}' must not be negative, got {getattr(self, name)}.")
         if self.form_factors not in ("raycast", "hemicube"):
             raise SceneError(f"Setting 'form_factors' must be 'raycast' or 'hemicube', got '{self.form_factors}'.")
-        if self.solver not in ("progressive", "direct"):
-            raise SceneError(f"Setting 'solver' must be 'progressive' or 'direct', got '{self.solver}'.")
-        if self.element_size_m > self.patch_size_m:
+        if self.solver not in SOLVERS:
+            raise SceneError(f"Setting 'solver' must be one of {', '.join(SOLVERS)}, got '{self.solver}'.")
+        if self.form_factors == "hemicube" and self.solver == "hierarchical":
+            raise SceneError("Setting 'form_factors' 'hemicube' needs the 'progressive' or 'direct' solver.")
+        if self.element_size_m > self.patch_size_m and self.solver != "hierarchical":
             raise SceneError(f"Setting 'element_size_m' ({self.element_size_m}) must not exceed "
                              f"'patch_size_m' ({self.patch_size_m}).")
 
@@ -85,8 +105,87 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
     """Solve the scene's diffuse light; raises BakeCancelled if ``cancelled()`` turns True."""
     timer = Timer()
     offset = RAY_OFFSET_FRACTION * scene.size_m
-    mesh = build_mesh(scene, settings.patch_size_m, settings.element_size_m)
     caster = RayCaster(scene.triangles, settings.threads or None)
+    solve_scene = _hierarchical if settings.solver == "hierarchical" else _classic
+    mesh, elements, state, ambient, counts = solve_scene(scene, settings, caster, offset, timer, progress,
+                                                         cancelled)
+    direct = DirectLighting(scene, caster, settings.patch_size_m, offset, settings.light_samples_per_edge,
+                            settings.seed)
+    counts["emitters"] = direct.emitter_count
+    return Solution(scene, mesh, elements, direct, caster, offset, ambient, state.history, timer.laps,
+                    caster.rays_cast, state, reflectance_warnings(scene), counts)
+
+
+def reflectance_warnings(scene: Scene) -> list[str]:
+    """One warning naming the materials whose reflectance reaches 1 somewhere (pure white), which the solve keeps
+    just below 1 so that light between white walls stays finite."""
+    white = [m.name for m in scene.materials if max(m.reflectance) >= MAX_REFLECTANCE or
+             (m.texture is not None and m.texture.pixels[..., :3].max() >= MAX_REFLECTANCE)]
+    if not white:
+        return []
+    return [f"Reflectance of 1 (pure white) in {', '.join(map(repr, white))}: elements reflect at most "
+            f"{MAX_REFLECTANCE} so that the solve converges."]
+
+
+def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
+    """Face clusters, their live sides, links to the cluster tree and the Jacobi solve (core.hierarchical)."""
+    size = settings.element_size_m
+    mesh = build_mesh(scene, size, size)
+    progress(0.0, f"Clustering {len(mesh.node_bary)} pieces into elements")
+    clusters = cluster_pieces(mesh, scene, caster, size, offset, node_reflectance(mesh, scene, mesh.leaves))
+    exposed_samples = sample_exposure(clusters, mesh, caster, scene, offset, settings.seed)
+    receivers = Receivers.of(clusters, exposed_samples)
+    # A side whose hemisphere meets no solved surface exchanges no light with the scene (the bottom of a box
+    # resting on the floor, facing the void under it; a ground plane under an open sky): it keeps its direct light
+    # but sends nothing, so that it does not dilute its clusters' means.
+    covered = covered_share(caster, receivers.point, receivers.normal, offset, ~scene.casts_only, settings.seed)
+    isolated = covered == 0
+    source_samples = exposed_samples.copy()
+    source_samples[receivers.element[isolated], receivers.side[isolated]] = 0.0
+    timer.lap("elements")
+    progress(0.0, f"Direct light on {len(receivers.element)} element sides")
+    direct = np.zeros((clusters.count, 2, 3))
+    direct[receivers.element, receivers.side] = direct_irradiance(
+        scene, caster, receivers.point, receivers.normal, offset, settings.light_samples_per_edge, settings.seed)
+    timer.lap("direct light")
+    tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, source_samples)
+    sources = LinkSources.of(tree, clusters)
+    links = build_links(sources, receivers.point, receivers.normal, receivers.element, caster, settings.opening,
+                        settings.visibility_samples_per_edge, offset, covered, progress, cancelled)
+    timer.lap("links")
+    exposed, sending = exposed_samples.sum(axis=2), source_samples.sum(axis=2)
+    reflectance = np.minimum(clusters.reflectance, MAX_REFLECTANCE)
+    state = HierarchicalState(clusters, tree, receivers, links, exposed, sending, reflectance, direct,
+                              direct.copy())
+    rough = max(settings.residual_threshold, ROUGH_RESIDUAL)  # enough to tell where clusters' radiosity varies
+    solve(state, rough, settings.max_shots, lambda: caster.rays_cast, progress, cancelled)
+    timer.lap("solve")
+    # BF refinement: links to clusters whose surfaces' radiosity varies, where that matters, are refined to their
+    # parts; the solve then resumes with them.
+    received = state.irradiance[receivers.element, receivers.side].sum(axis=1)
+    state.links = refine_links(links, sources, caster, receivers.point, receivers.normal,
+                               node_deviation(tree, state.radiosity, sending), received, REFINEMENT_TOLERANCE,
+                               settings.visibility_samples_per_edge, offset, cancelled)
+    timer.lap("link refinement")
+    solve(state, settings.residual_threshold, settings.max_shots, lambda: caster.rays_cast, progress, cancelled)
+    timer.lap("solve")
+    node_element = np.full(len(mesh.node_bary), -1)
+    node_element[clusters.piece_node] = clusters.piece_element
+    point = np.repeat(clusters.centroid[:, None], 2, axis=1)
+    point[receivers.element, receivers.side] = receivers.point
+    reach = np.maximum(np.linalg.norm(clusters.high - clusters.low, axis=1), size)
+    elements = SolvedElements(node_element, point, clusters.normal[:, None, :] * [[1.0], [-1.0]], exposed,
+                              state.irradiance, direct, reflectance, clusters.emitted_exitance, clusters.area_m2,
+                              reach)
+    counts = {"pieces": len(clusters.piece_node), "element_sides": len(receivers.element),
+              "nodes": tree.node_count, "links": state.links.count, "link_bytes": state.links.nbytes}
+    return mesh, elements, state, state.ambient(), counts
+
+
+def _classic(scene, settings, caster, offset, timer, progress, cancelled):
+    """Patches and elements per triangle, form-factor rows, progressive or direct solve, adaptive passes and
+    near-field links."""
+    mesh = build_mesh(scene, settings.patch_size_m, settings.element_size_m)
     patches = Patches.of(mesh)
     rows = _form_factor_rows(settings, caster, patches, mesh, scene, offset)
     elements = bury(elements_of(mesh, scene), caster, scene, offset)
@@ -109,13 +208,26 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
         timer.lap(f"adaptive pass {number + 1}")
     _near_field(state, settings, caster, offset, progress, cancelled)
     timer.lap("near field")
-    emission = patch_mean(state.elements.emitted_exitance, state.elements, patches)
-    direct = DirectLighting(scene, caster, patches, emission, offset, settings.light_samples_per_edge, settings.seed)
     # The light the unshot residual would still bring, spread evenly (the ambient term), so an early stop does
     # not leave multiple reflection short (by about residual / (1 - rho) on bright walls).
     ambient = state.ambient(factors.enclosure(state.patch_area_m2))
-    return Solution(scene, mesh, state, weld_tolerance_m=offset / 10, seconds=timer.laps, rays_cast=caster.rays_cast,
-                    direct=direct, ambient_irradiance=ambient)
+    return mesh, _classic_elements(mesh, state), state, ambient, {"patches": len(patches.area_m2)}
+
+
+def _classic_elements(mesh, state: RadiosityState) -> SolvedElements:
+    """The classic solve's elements (mesh leaves, front side only) as SolvedElements."""
+    elements = state.elements
+    count = len(elements.node)
+    node_element = np.full(len(mesh.node_bary), -1)
+    node_element[elements.node] = np.arange(count)
+    exposed = np.zeros((count, 2))
+    exposed[:, FRONT] = elements.exposed_m2
+    irradiance, direct = np.zeros((count, 2, 3)), np.zeros((count, 2, 3))
+    irradiance[:, FRONT], direct[:, FRONT] = state.irradiance, state.direct_irradiance
+    reach = 2.0 * np.linalg.norm(elements.corners - elements.centroid[:, None, :], axis=2).max(axis=1)
+    return SolvedElements(node_element, np.repeat(elements.centroid[:, None], 2, axis=1),
+                          elements.normal[:, None, :] * [[1.0], [-1.0]], exposed, irradiance, direct,
+                          elements.reflectance, elements.emitted_exitance, elements.area_m2, reach)
 
 
 def _form_factor_rows(settings, caster, patches, mesh, scene, offset):

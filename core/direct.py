@@ -1,50 +1,70 @@
-"""Direct light at arbitrary surface points: analytic lights plus emissive patches, both with shadow rays.
+"""Direct light at arbitrary surface points: analytic lights, the world and emissive surfaces, with shadow rays.
 
 Outputs evaluate the direct part here, point by point, and interpolate only the smooth indirect part between
 elements (radiosity paper, section 10: ray tracing for what is sharp, radiosity for what is diffuse). So a shadow
 edge or a corner is as sharp as the sampling, whatever the element size.
+
+Emissive surfaces are their own sources, whatever the solver: the emissive triangles, cut into pieces of at most
+``emitter_size_m`` and grouped into face clusters (core.clusters), each seen through the link form factors
+(core.links: Lambert's exact factor times s x s shadow rays for a piece on its own).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .cluster_tree import build_tree
+from .clusters import SAMPLES, cluster_pieces
 from .lights import direct_irradiance
-from .mesh import Elements
+from .links import LinkSources, link_factors
+from .mesh import build_mesh, node_reflectance
 from .raycast import RayCaster
 from .scene import Scene
-from .shooting import Patches, RayCastRows
+
+POINTS_PER_STEP = 1 << 14
 
 
 class DirectLighting:
-    """Irradiance (W m^-2) straight from the lights and from emissive patches (their emitted exitance only)."""
+    """Irradiance (W m^-2) straight from the lights, the world and emissive surfaces (their emitted exitance
+    only, from the front of their faces)."""
 
-    def __init__(self, scene: Scene, caster: RayCaster, patches: Patches, patch_emission: np.ndarray,
-                 offset_m: float, samples_per_edge: int, seed: int):
+    def __init__(self, scene: Scene, caster: RayCaster, emitter_size_m: float, offset_m: float,
+                 samples_per_edge: int, seed: int):
         self.scene, self.caster, self.offset_m = scene, caster, offset_m
         self.samples_per_edge, self.seed = samples_per_edge, seed
-        self.emitters = np.flatnonzero(patch_emission.max(axis=1) > 0)
-        self.emission = patch_emission[self.emitters]
-        self.patches = patches
-        self._rows = {samples_per_edge: RayCastRows(caster, patches, samples_per_edge, offset_m)}
+        emissive = (scene.emitted_radiance[scene.material_index].max(axis=1) > 0) & ~scene.casts_only
+        self.sources, self.exitance = None, np.zeros((0, 3))
+        if emissive.any():
+            mesh = build_mesh(scene, emitter_size_m, emitter_size_m, np.flatnonzero(emissive))
+            clusters = cluster_pieces(mesh, scene, caster, emitter_size_m, offset_m,
+                                      node_reflectance(mesh, scene, mesh.leaves))
+            front = np.zeros((clusters.count, 2, SAMPLES))
+            front[:, 0] = (clusters.area_m2 / SAMPLES)[:, None]  # emitters shine from the front of their faces
+            tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, front)
+            self.sources, self.exitance = LinkSources.of(tree, clusters), clusters.emitted_exitance
+            self.leaves, self.front_class = tree.leaf_of, tree.side_class[:, 0]
 
-    def irradiance(self, points: np.ndarray, normals: np.ndarray, own_patch: np.ndarray | None = None,
-                   samples_per_edge: int | None = None, seed_offset: int = 0, lift=None) -> np.ndarray:
-        """(m, 3) direct irradiance at points with unit normals; ``own_patch`` (m,) excludes each point's patch;
-        ``samples_per_edge`` overrides the shadow-ray count (s^2 per light and emitter); ``seed_offset`` is added
-        to the bake's seed; ``lift`` (core.terminator.ShadowLift) starts the shadow rays towards lamps and
-        emissive patches from smooth-shaded points on their smooth surface (core.terminator)."""
+    @property
+    def emitter_count(self) -> int:
+        return len(self.exitance)
+
+    def irradiance(self, points: np.ndarray, normals: np.ndarray, samples_per_edge: int | None = None,
+                   seed_offset: int = 0, lift=None) -> np.ndarray:
+        """(m, 3) direct irradiance at points with unit normals; ``samples_per_edge`` overrides the shadow-ray
+        count (s^2 per light and emitter); ``seed_offset`` is added to the bake's seed; ``lift``
+        (core.terminator.ShadowLift) starts the shadow rays towards lamps and emissive surfaces from smooth-shaded
+        points on their smooth surface (core.terminator)."""
         samples = samples_per_edge or self.samples_per_edge
         total = direct_irradiance(self.scene, self.caster, points, normals, self.offset_m, samples,
                                   self.seed + seed_offset, lift)
-        if samples not in self._rows:
-            self._rows[samples] = RayCastRows(self.caster, self.patches, samples, self.offset_m)
-        rows = self._rows[samples]
-        if len(self.emitters):
-            count = len(points)
-            receivers = Elements(node=np.arange(count), patch=np.full(count, -1) if own_patch is None else own_patch,
-                                 corners=None, centroid=points, normal=normals, area_m2=None, reflectance=None,
-                                 emitted_exitance=None, exposed_m2=None)
-            for start in range(0, len(self.emitters), 64):
-                block = self.emitters[start:start + 64]
-                total += rows.block(block, receivers, lift) @ self.emission[start:start + 64]
+        if self.sources is None:
+            return total
+        count = self.emitter_count
+        step = max(1, POINTS_PER_STEP // count)
+        for start in range(0, len(points), step):  # every point with every emitter, a block of points at a time
+            rows = np.arange(start, min(start + step, len(points)))
+            point, emitter = np.repeat(rows, count), np.tile(np.arange(count), len(rows))
+            factor, _ = link_factors(self.sources, self.caster, points[point], normals[point], self.leaves[emitter],
+                                     samples, self.offset_m, None if lift is None else lift[point])
+            front = factor[np.arange(len(point)), self.front_class[emitter]][:, None]  # they shine from the front
+            total[rows] += (front * self.exitance[emitter]).reshape(len(rows), count, 3).sum(axis=1)
         return total

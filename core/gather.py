@@ -7,7 +7,8 @@ With cosine-weighted directions (pdf cos(theta) / pi) the indirect irradiance is
     E(x) = integral of L(hit) cos(theta) dw  ~  (pi / N) sum L(hit)  =  (1 / N) sum B_r(hit),
 
 where B_r = rho H is the reflected radiosity at the hit (a diffuse surface's radiance is B / pi). Emission and
-the world are left out: core.direct adds them exactly, with shadow rays. Back faces and unsolved ("shadow only")
+the world are left out: core.direct adds them exactly, with shadow rays. A ray that lands on the back of a face
+sees the back side's radiosity (surfaces reflect from both sides, as in Cycles); unsolved ("shadow only")
 surfaces return nothing, and so do directions below the face's own plane when the cosine lobe is turned by a
 shading normal (Cycles' diffuse BSDF gives them no weight). Directions are stratified (s x s jittered cells,
 Malley's method) with a seeded shift per point, so the result is deterministic.
@@ -48,8 +49,8 @@ def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_e
     hit, bary = caster.first_hit(origins, directions)
     triangles = solution.scene.triangles
     above = np.einsum("mrk,mk->mr", directions.reshape(count, rays, 3), face_normals).ravel() > 0
-    front = (hit >= 0) & above
-    front[front] = (triangle_unit_normals(triangles[hit[front]]) * directions[front]).sum(axis=1) < 0
+    landed = np.flatnonzero((hit >= 0) & above)
+    side = ((triangle_unit_normals(triangles[hit[landed]]) * directions[landed]).sum(axis=1) > 0).astype(np.int64)
     radiosity = np.zeros((len(hit), 3))
-    radiosity[front] = np.nan_to_num(solution.reflected_radiosity(hit[front], bary[front]))
+    radiosity[landed] = solution.reflected_radiosity(hit[landed], bary[landed], side)
     return radiosity.reshape(count, rays, 3).mean(axis=1) / np.pi

@@ -48,3 +48,37 @@ def uniform_subdivision(k: int) -> np.ndarray:
 def triangle_sample_barycentrics(samples_per_edge: int) -> np.ndarray:
     """(s^2, 3) stratified barycentric points: the centroids of a uniform s x s subdivision."""
     return uniform_subdivision(samples_per_edge).mean(axis=1)
+
+
+def duplicate_sides(triangles: np.ndarray, tolerance_m: float) -> np.ndarray:
+    """(T, 2) True where a side (0 front, 1 back) of a triangle repeats a side of another triangle with the same
+    corners (within ``tolerance_m``) that faces the same way. Of each such set only one side counts: a front before
+    a back, then the lowest index. A two-sided sheet modelled as two copies with opposite windings thus reflects
+    once from each side (as in Cycles, whose ray meets one of the two), and a face duplicated by mistake reflects
+    once."""
+    count = len(triangles)
+    corners = np.round(triangles / tolerance_m).astype(np.int64)
+    order = np.lexsort((corners[..., 2], corners[..., 1], corners[..., 0]), axis=-1)  # the same for every copy
+    canonical = np.take_along_axis(corners, order[..., None], axis=1).reshape(count, 9)
+    group = np.unique(canonical, axis=0, return_inverse=True)[1].ravel()
+    first = np.full(group.max(initial=-1) + 1, count)
+    np.minimum.at(first, group, np.arange(count))
+    normals = triangle_unit_normals(triangles)
+    opposite = (np.einsum("tk,tk->t", normals, normals[first[group]]) < 0).astype(np.int64)
+    side = np.tile([0, 1], count)
+    triangle = np.repeat(np.arange(count), 2)
+    facing = opposite[triangle] ^ side  # 0: along the group's first triangle's normal, 1: against it
+    ranked = np.lexsort((triangle, side, facing, group[triangle]))
+    same_place = (group[triangle][ranked][1:] == group[triangle][ranked][:-1]) & \
+        (facing[ranked][1:] == facing[ranked][:-1])
+    duplicate = np.zeros(2 * count, dtype=bool)
+    duplicate[ranked[1:][same_place]] = True
+    return duplicate.reshape(count, 2)
+
+
+def direction_classes(normals: np.ndarray) -> np.ndarray:
+    """(...,) which of six classes a unit normal falls in: 2 x its dominant axis, + 1 if that component is
+    negative (+x, -x, +y, -y, +z, -z)."""
+    axis = np.argmax(np.abs(normals), axis=-1)
+    negative = np.take_along_axis(normals, axis[..., None], axis=-1)[..., 0] < 0
+    return 2 * axis + negative

@@ -68,12 +68,11 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     timer = Timer()
     texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
     tri = np.asarray(scene_triangle, dtype=np.int64)[texels.triangle]
-    scene = solution.scene
-    direct, offset = solution.direct, solution.direct.offset_m
+    scene, offset = solution.scene, solution.offset_m
     points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels, 4 * offset)
     contact = face_to_face_contact(scene.triangles, tri, points, 4 * offset)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
-    points, moved = push_out_of_geometry(direct.caster, scene.triangles, points, normals, reach, offset)
+    points, moved = push_out_of_geometry(solution.caster, scene.triangles, points, normals, reach, offset)
     sub_points, sub_bary = _subtexel_points(scene.triangles[tri], texels, corner_uv,
                                             settings.subtexel_samples_per_edge, points, moved, 4 * offset)
     timer.lap("texels")
@@ -82,8 +81,8 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
         if cancelled():
             raise BakeCancelled("Bake cancelled while lighting the lightmap.")
         chunk = slice(start, min(start + TEXELS_PER_CHUNK, len(points)))
-        light[chunk] = _light_chunk(solution, settings, sub_points[chunk], sub_bary[chunk], normals[chunk],
-                                    tri[chunk], texels.barycentric[chunk], start, timer)
+        light[chunk] = _light_chunk(solution, settings, points[chunk], sub_points[chunk], sub_bary[chunk],
+                                    normals[chunk], tri[chunk], texels.barycentric[chunk], start, timer)
         progress(chunk.stop / len(points), f"Lightmap: {chunk.stop} of {len(points)} texels lit")
     light = solution.black_stays_black(light, tri)
     # Resting on another face, no light gets there; texels pushed out to the visible floor beside a box keep that
@@ -100,10 +99,11 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
                     len(texels.pixel), timer.laps)
 
 
-def _light_chunk(solution, settings, sub_points, sub_bary, normals, tri, barycentric, first_texel, timer):
-    """(c, 3) direct + indirect light of c consecutive texels, the first being texel ``first_texel`` of the page
-    (the shadow and gather rays are seeded from there, so no two steps repeat each other's samples). Light arrives
-    by the shading normal (smooth shading, as Cycles bakes); ``normals``, the faces' own, find buried points."""
+def _light_chunk(solution, settings, points, sub_points, sub_bary, normals, tri, barycentric, first_texel, timer):
+    """(c, 3) direct + indirect light of c consecutive texels at ``points`` (with ``sub_points`` over their
+    footprints), the first being texel ``first_texel`` of the page (the shadow and gather rays are seeded from
+    there, so no two steps repeat each other's samples). Light arrives by the shading normal (smooth shading, as
+    Cycles bakes); ``normals``, the faces' own, find buried points and the receivers to interpolate from."""
     scene = solution.scene
     c, q = sub_points.shape[:2]
     shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
@@ -112,27 +112,25 @@ def _light_chunk(solution, settings, sub_points, sub_bary, normals, tri, barycen
     timer.lap("direct")
     if settings.indirect == "gather":
         light = _footprint_mean(scene, direct, tri, sub_bary) + final_gather(
-            solution, solution.direct.caster, sub_points, scene.shading_normals(tri, barycentric),
-            settings.gather_samples_per_edge, solution.direct.offset_m, settings.seed + first_texel,
+            solution, solution.caster, sub_points, scene.shading_normals(tri, barycentric),
+            settings.gather_samples_per_edge, solution.offset_m, settings.seed + first_texel,
             face_normals=normals)
     else:
-        light = _footprint_mean(scene, direct + _interpolated_indirect(solution, tri, sub_bary, sub_points, normals),
-                                tri, sub_bary)
+        indirect = _interpolated_indirect(solution, tri, barycentric, points, normals, sub_points)
+        light = _footprint_mean(scene, direct + indirect, tri, sub_bary)
     timer.lap("indirect")
     return light
 
 
-def _interpolated_indirect(solution, tri, sub_bary, sub_points, normals) -> np.ndarray:
-    """(m, q, 3) indirect light interpolated from the element corners at each sub-texel point; 0 at points inside
-    closed geometry (the part of a texel that reaches under a box standing on the floor, where Cycles' samples
-    see the inside of the box)."""
+def _interpolated_indirect(solution, tri, barycentric, points, normals, sub_points) -> np.ndarray:
+    """(m, q, 3) indirect light interpolated from the receivers around each texel's point, at each of its q
+    sub-texel points; 0 at points inside closed geometry (the part of a texel that reaches under a box standing on
+    the floor, where Cycles' samples see the inside of the box)."""
     m, q = sub_points.shape[:2]
-    indirect = solution.indirect_light(np.repeat(tri, q), sub_bary.reshape(-1, 3), exposed_weight=True)
-    indirect = indirect.reshape(m, q, 3)
-    inside = inside_closed_geometry(solution.direct.caster, solution.scene.triangles, sub_points.reshape(-1, 3),
-                                    np.repeat(normals, q, axis=0), solution.direct.offset_m).reshape(m, q)
-    indirect[inside] = 0.0
-    return indirect
+    indirect = solution.indirect_light(points, normals, tri, barycentric)
+    inside = inside_closed_geometry(solution.caster, solution.scene.triangles, sub_points.reshape(-1, 3),
+                                    np.repeat(normals, q, axis=0), solution.offset_m).reshape(m, q)
+    return np.where(inside[..., None], 0.0, indirect[:, None, :])
 
 
 def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndarray) -> np.ndarray:

@@ -18,12 +18,12 @@ import numpy as np
 
 from .geometry import triangle_areas, triangle_unit_normals, uniform_subdivision
 from .raycast import RayCaster
-from .scene import Scene
+from .scene import MAX_REFLECTANCE, Scene
 from .texels import inside_closed_geometry
 
 # Children of a 4-way split of (a, b, c), as barycentric combinations of the parent's corners:
 # three corner triangles, then the middle one (ab, bc, ca).
-_SPLIT = np.array([
+CHILDREN = np.array([
     [[1, 0, 0], [.5, .5, 0], [.5, 0, .5]],
     [[.5, .5, 0], [0, 1, 0], [0, .5, .5]],
     [[.5, 0, .5], [0, .5, .5], [0, 0, 1]],
@@ -99,7 +99,7 @@ class ElementMesh:
         nodes = np.asarray(nodes, dtype=np.int64)
         first = len(self.node_bary)
         children = first + np.arange(4 * len(nodes)).reshape(-1, 4)
-        self.node_bary = np.concatenate([self.node_bary, np.einsum("cij,njk->ncik", _SPLIT,
+        self.node_bary = np.concatenate([self.node_bary, np.einsum("cij,njk->ncik", CHILDREN,
                                                                    self.node_bary[nodes]).reshape(-1, 3, 3)])
         self.node_triangle = np.concatenate([self.node_triangle, np.repeat(self.node_triangle[nodes], 4)])
         self.node_patch = np.concatenate([self.node_patch, np.repeat(self.node_patch[nodes], 4)])
@@ -139,9 +139,11 @@ def _to_local(corners_bary: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
     return np.clip(np.linalg.solve(np.swapaxes(corners_bary, 1, 2), barycentric[..., None])[..., 0], 0.0, 1.0)
 
 
-def build_mesh(scene: Scene, patch_size_m: float, element_size_m: float) -> ElementMesh:
-    """Patches of about ``patch_size_m`` and elements of about ``element_size_m`` on the receiving triangles."""
-    receivers = np.flatnonzero(~scene.casts_only)
+def build_mesh(scene: Scene, patch_size_m: float, element_size_m: float,
+               triangles: np.ndarray | None = None) -> ElementMesh:
+    """Patches of about ``patch_size_m`` and elements of about ``element_size_m`` on the given scene triangles
+    (default: every receiving one)."""
+    receivers = np.flatnonzero(~scene.casts_only) if triangles is None else np.asarray(triangles, dtype=np.int64)
     triangles = scene.triangles[receivers]
     edges = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2)
     k = np.maximum(1, np.ceil(edges.max(axis=1) / patch_size_m - 1e-9)).astype(np.int64)
@@ -194,7 +196,7 @@ def elements_of(mesh: ElementMesh, scene: Scene, nodes: np.ndarray | None = None
     return Elements(
         node=nodes, patch=mesh.node_patch[nodes], corners=corners, centroid=corners.mean(axis=1),
         normal=triangle_unit_normals(mesh.triangles[mesh.node_triangle[nodes]]), area_m2=area_m2,
-        reflectance=_element_reflectance(mesh, scene, nodes, scene_triangle, material),
+        reflectance=np.minimum(node_reflectance(mesh, scene, nodes), MAX_REFLECTANCE),
         emitted_exitance=np.pi * scene.emitted_radiance[material], exposed_m2=area_m2.copy())
 
 
@@ -208,10 +210,11 @@ def bury(elements: Elements, caster: RayCaster, scene: Scene, offset_m: float) -
     return replace(elements, exposed_m2=np.where(buried, 0.0, elements.area_m2))
 
 
-def _element_reflectance(mesh: ElementMesh, scene: Scene, nodes, scene_triangle, material) -> np.ndarray:
-    """(n, 3) reflectance: the material's, or its texture's mean over each element's UV footprint (where the
-    triangle has finite UVs)."""
-    reflectance = scene.reflectance[material]
+def node_reflectance(mesh: ElementMesh, scene: Scene, nodes: np.ndarray) -> np.ndarray:
+    """(n, 3) reflectance of mesh nodes: the material's, or its texture's mean over each node's UV footprint
+    (where the triangle has finite UVs)."""
+    scene_triangle = mesh.triangle_scene[mesh.node_triangle[nodes]]
+    reflectance = scene.reflectance[scene.material_index[scene_triangle]]
     for texture, rows in scene.textured_rows(scene_triangle):
         corner_uv = np.einsum("nij,njk->nik", mesh.node_bary[nodes[rows]], scene.triangle_uv[scene_triangle[rows]])
         reflectance[rows] = texture.footprint_mean(corner_uv)

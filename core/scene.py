@@ -20,6 +20,9 @@ from .geometry import triangle_areas, triangle_unit_normals
 
 RGB = tuple[float, float, float]
 TERMINATOR_GEOMETRY_OFFSET = 0.1  # Blender's default for an object's Shadow Terminator Geometry Offset
+# Pure white (reflectance 1) is accepted, as in Cycles; the solve keeps elements just below it, so that light
+# bouncing between white walls stays finite (the bake says so in its warnings).
+MAX_REFLECTANCE = 0.99
 
 
 class SceneError(ValueError):
@@ -28,7 +31,7 @@ class SceneError(ValueError):
 
 @dataclass(frozen=True)
 class Material:
-    """Lambertian material. ``reflectance`` in [0, 1) per channel; ``emitted_radiance`` >= 0 (W m^-2 sr^-1).
+    """Lambertian material. ``reflectance`` in [0, 1] per channel; ``emitted_radiance`` >= 0 (W m^-2 sr^-1).
 
     ``texture`` (optional, core.texture.ReflectanceTexture): a base-colour image read through the scene's
     ``triangle_uv``; elements then reflect the image's mean over their footprint, and ``reflectance`` is the
@@ -287,19 +290,19 @@ def _check_rgb(values, owner: str, quantity: str, upper: float | None) -> None:
         raise SceneError(f"{owner}: {quantity} must be three finite numbers, got {tuple(values.ravel())}.")
     if (values < 0).any():
         raise SceneError(f"{owner}: {quantity} must not be negative, got {tuple(values)}.")
-    if upper is not None and (values >= upper).any():
-        raise SceneError(f"{owner}: {quantity} {tuple(values)} must be below {upper} "
-                         "(a reflectance of 1 or more never converges).")
+    if upper is not None and (values > upper).any():
+        raise SceneError(f"{owner}: {quantity} ({', '.join(f'{v:g}' for v in values)}) must not exceed {upper:g} "
+                         "(a surface cannot reflect more light than it receives).")
 
 
 def _check_material(material: Material) -> None:
     _check_rgb(material.reflectance, f"Material '{material.name}'", "reflectance", upper=1.0)
     if material.texture is not None:
         pixels = material.texture.pixels[..., :3]
-        if not np.isfinite(pixels).all() or pixels.min() < 0 or pixels.max() >= 1.0:
-            raise SceneError(f"Material '{material.name}': its base colour texture has values outside [0, 1) "
-                             f"(from {pixels.min():.3g} to {pixels.max():.3g}); a reflectance of 1 or more never "
-                             "converges.")
+        if not np.isfinite(pixels).all() or pixels.min() < 0 or pixels.max() > 1.0:
+            raise SceneError(f"Material '{material.name}': its base colour texture has values outside [0, 1] "
+                             f"(from {pixels.min():.3g} to {pixels.max():.3g}); a surface cannot reflect more light "
+                             "than it receives.")
     _check_rgb(material.emitted_radiance, f"Material '{material.name}'", "emitted radiance", upper=None)
 
 

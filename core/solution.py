@@ -1,12 +1,10 @@
 """A solved scene and its outputs in Cycles' units.
 
 The baked quantity is "diffuse light without albedo": irradiance / pi (W m^-2 sr^-1, scene-linear), what Cycles'
-Diffuse bake with Direct + Indirect and no Color stores (docs/units.md). Per-element values are smoothed to the
-element corners by area-weighted nodal averaging (Cohen & Greenberg 1985) among elements that share a welded
-vertex and whose normals differ by less than ``SMOOTH_ANGLE_RAD``, so creases stay sharp. Lightmaps weight by
-exposed area instead: they resolve the dark footprint under a box texel by texel, so elements buried there must
-not darken the corners beside it; a vertex on the footprint's edge keeps the area weight (Cycles' vertex bake
-there averages in the dark side).
+Diffuse bake with Direct + Indirect and no Color stores (docs/units.md). A solve leaves, for every element side,
+the irradiance at its receiver point (``SolvedElements``). At any surface point the light is the direct part,
+traced there with shadow rays (core.direct), plus the indirect part interpolated from the receivers around it
+(core.interpolation: a kernel over receivers the point sees, so no light leaks through walls).
 """
 from __future__ import annotations
 
@@ -15,113 +13,112 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .direct import DirectLighting
+from .geometry import triangle_unit_normals
+from .interpolation import ReceiverField
 from .mesh import ElementMesh, weld_vertices
-from .ragged import concatenated_ranges
+from .raycast import RayCaster
 from .scene import Scene
+from .solver import ConvergenceStep
 from .terminator import ShadowLift
-from .solver import ConvergenceStep, RadiosityState
 from .texels import inset
 
-SMOOTH_ANGLE_RAD = np.radians(45.0)
+FRONT, BACK = 0, 1
+
+
+@dataclass
+class SolvedElements:
+    """What a solve leaves on its n elements, two sides each (the front along the element's normal).
+
+    node_element: (mesh nodes,) the element each leaf of the mesh belongs to (-1 for inner nodes);
+    point, normal: (n, 2, 3) each side's receiver point and unit normal; exposed_m2: (n, 2) the area of each side
+    that exchanges light (0: the side is buried in closed geometry, dead); irradiance, direct_irradiance: (n, 2, 3)
+    total and direct irradiance at the receivers, W m^-2 (no ambient term); reflectance, emitted_exitance: (n, 3);
+    area_m2: (n,); reach_m: (n,) how far from its receiver an element's value is interpolated.
+    """
+
+    node_element: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    exposed_m2: np.ndarray
+    irradiance: np.ndarray
+    direct_irradiance: np.ndarray
+    reflectance: np.ndarray
+    emitted_exitance: np.ndarray
+    area_m2: np.ndarray
+    reach_m: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return len(self.area_m2)
+
+    @property
+    def alive(self) -> np.ndarray:
+        """(n, 2) sides that receive and send light."""
+        return self.exposed_m2 > 0
 
 
 @dataclass
 class Solution:
     scene: Scene
     mesh: ElementMesh
-    state: RadiosityState
-    weld_tolerance_m: float
+    elements: SolvedElements
+    direct: DirectLighting
+    caster: RayCaster
+    offset_m: float
+    ambient_irradiance: np.ndarray = field(default_factory=lambda: np.zeros(3))  # (3,) or (n, 2, 3)
+    history: list[ConvergenceStep] = field(default_factory=list)
     seconds: dict[str, float] = field(default_factory=dict)
     rays_cast: int = 0
-    direct: DirectLighting | None = None
-    ambient_irradiance: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    _corner_light: np.ndarray | None = field(default=None, init=False, repr=False)
-    _corner_indirect: dict = field(default_factory=dict, init=False, repr=False)
-    _corner_reflected: np.ndarray | None = field(default=None, init=False, repr=False)
-    _lookup_tables: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
-
-    @property
-    def history(self) -> list[ConvergenceStep]:
-        return self.state.history
+    state: object = None
+    warnings: list[str] = field(default_factory=list)
+    counts: dict = field(default_factory=dict)
+    _field: ReceiverField | None = field(default=None, init=False, repr=False)
+    _indirect: np.ndarray | None = field(default=None, init=False, repr=False)
+    _to_mesh: np.ndarray | None = field(default=None, init=False, repr=False)
 
     @property
     def residual(self) -> float:
-        return self.state.residual
+        return self.history[-1].residual if self.history else 0.0
 
     @property
     def element_count(self) -> int:
-        return len(self.state.elements.node)
+        return self.elements.count
 
     def element_irradiance(self) -> np.ndarray:
-        """(n, 3) irradiance H per element, W m^-2: the solve's plus the ambient term for the unshot residual."""
-        return self.state.irradiance + self.ambient_irradiance
+        """(n, 3) irradiance H on each element's front, W m^-2: the solve's plus the ambient term for the
+        unfinished residual."""
+        return self._irradiance()[:, FRONT]
 
     def element_light(self) -> np.ndarray:
-        """(n, 3) irradiance / pi per element (Cycles' Diffuse Direct + Indirect, no Color)."""
+        """(n, 3) irradiance / pi per element front (Cycles' Diffuse Direct + Indirect, no Color)."""
         return self.element_irradiance() / np.pi
 
     def element_radiosity(self) -> np.ndarray:
-        """(n, 3) radiosity B = E + rho H per element, W m^-2."""
-        return self.state.elements.emitted_exitance + self.state.elements.reflectance * self.element_irradiance()
-
-    def corner_light(self) -> np.ndarray:
-        """(n, 3, 3) light at each element's corners by area-weighted nodal averaging (computed once)."""
-        if self._corner_light is None:
-            self._corner_light = self._nodal_average(self.element_light())
-        return self._corner_light
-
-    def _corner_indirect_light(self, exposed_weight: bool) -> np.ndarray:
-        """(n, 3, 3) indirect light (total minus what ``direct`` gives at the element centroids) at corners."""
-        if exposed_weight not in self._corner_indirect:
-            elements = self.state.elements
-            direct = self.direct.irradiance(elements.centroid, elements.normal, elements.patch)
-            self._corner_indirect[exposed_weight] = self._nodal_average(
-                (self.element_irradiance() - direct) / np.pi, exposed_weight)
-        return self._corner_indirect[exposed_weight]
-
-    def _nodal_average(self, light: np.ndarray, exposed_weight: bool = False) -> np.ndarray:
-        elements = self.state.elements
-        _, corner_vertex = weld_vertices(self.mesh, elements.node, self.weld_tolerance_m)
-        corner_of = corner_vertex.ravel()
-        owner = np.repeat(np.arange(len(elements.node)), 3)
-        order = np.argsort(corner_of, kind="stable")
-        _, group_start, group_size = np.unique(corner_of[order], return_index=True, return_counts=True)
-        size_of = np.repeat(group_size, group_size)
-        start_of = np.repeat(group_start, group_size)
-        # Every (corner, element) pair around the same vertex: the corner's element and each partner element.
-        corner = np.repeat(order, size_of)
-        partner = owner[order[np.repeat(start_of, size_of) + concatenated_ranges(size_of)]]
-        mine = owner[corner]
-        smooth = (elements.normal[mine] * elements.normal[partner]).sum(axis=1) >= np.cos(SMOOTH_ANGLE_RAD)
-        # With exposed_weight, a tiny share of the area keeps a corner that only buried elements share defined.
-        area = elements.exposed_m2 + 1e-6 * elements.area_m2 if exposed_weight else elements.area_m2
-        weight = area[partner] * smooth
-        total = np.zeros((3 * len(elements.node), 3))
-        np.add.at(total, corner, weight[:, None] * light[partner])
-        norm = np.bincount(corner, weights=weight, minlength=3 * len(elements.node))
-        return (total / norm[:, None]).reshape(-1, 3, 3)
+        """(n, 3) radiosity B = E + rho H per element front, W m^-2."""
+        return self.elements.emitted_exitance + self.elements.reflectance * self.element_irradiance()
 
     def evaluate(self, scene_triangle: np.ndarray, barycentric: np.ndarray,
                  direct_per_point: bool = False) -> np.ndarray:
         """(m, 3) light at surface points given by scene triangle index and barycentrics in that triangle.
 
-        With ``direct_per_point`` (and ``direct`` set), the direct part is computed at each point with shadow rays
-        (arriving by the shading normal, core.scene.Scene.shading_normals) and only the indirect part is
-        interpolated from the element corners; otherwise the element solution is
-        interpolated. Points on "shadow only" triangles (not solved) get NaN; black channels of the reflectance
-        get 0, as in Cycles' Diffuse bake without Color (it divides by the albedo).
+        With ``direct_per_point`` the direct part is computed at each point with shadow rays (arriving by the
+        shading normal, core.scene.Scene.shading_normals) and only the indirect part is interpolated; otherwise
+        the total is interpolated. Points on "shadow only" triangles (not solved) get NaN; black channels of the
+        reflectance get 0, as in Cycles' Diffuse bake without Color (it divides by the albedo).
         """
-        if self.direct is None or not direct_per_point:
-            return self.black_stays_black(self.interpolate(self.corner_light(), scene_triangle, barycentric),
-                                          scene_triangle)
+        scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         barycentric = np.asarray(barycentric, dtype=np.float64)
-        triangles = self.scene.triangles[np.asarray(scene_triangle, dtype=np.int64)]
-        points = np.einsum("mc,mck->mk", barycentric, triangles)
-        solved, leaf, _ = self._leaves(scene_triangle, barycentric)
-        points[solved] = inset(points[solved], self.state.elements.centroid[leaf], 4 * self.direct.offset_m)
-        normals = self.scene.shading_normals(np.asarray(scene_triangle, dtype=np.int64), barycentric)
-        direct = self.direct_light(points, normals, scene_triangle, barycentric)
-        return self.black_stays_black(direct + self.indirect_light(scene_triangle, barycentric), scene_triangle)
+        points = np.einsum("mc,mck->mk", barycentric, self.scene.triangles[scene_triangle])
+        normals = triangle_unit_normals(self.scene.triangles[scene_triangle])
+        solved, node = self.pieces(scene_triangle, barycentric)
+        points[solved] = inset(points[solved], self.mesh.corners(node).mean(axis=1), 4 * self.offset_m)
+        if not direct_per_point:
+            light = self._interpolate(self._total_light(), points, normals, scene_triangle, barycentric)
+        else:
+            shading = self.scene.shading_normals(scene_triangle, barycentric)
+            light = self.direct_light(points, shading, scene_triangle, barycentric) + \
+                self.indirect_light(points, normals, scene_triangle, barycentric)
+        return self.black_stays_black(light, scene_triangle)
 
     def black_stays_black(self, light: np.ndarray, scene_triangle: np.ndarray) -> np.ndarray:
         """Light with 0 in the channels where the triangle's reflectance is 0: Cycles' Diffuse bake without Color
@@ -132,60 +129,95 @@ class Solution:
     def direct_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
                      barycentric: np.ndarray, samples_per_edge: int | None = None,
                      seed_offset: int = 0) -> np.ndarray:
-        """(m, 3) direct light (irradiance / pi) at points by shadow rays; the point's own patch (found from its
-        triangle and barycentrics) is not counted as an emitter. NaN on triangles that were not solved.
+        """(m, 3) direct light (irradiance / pi) at points by shadow rays; NaN on triangles that were not solved.
         ``seed_offset`` shifts the shadow rays' seed, for points lit in several calls. Shadow rays from
         smooth-shaded triangles start on their smooth surface (core.terminator)."""
-        solved, leaf, _ = self._leaves(scene_triangle, barycentric)
-        lift = ShadowLift.at(self.scene, np.asarray(scene_triangle, dtype=np.int64)[solved],
-                             np.asarray(barycentric, dtype=np.float64)[solved], normals[solved])
+        scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
+        solved = self._scene_to_mesh()[scene_triangle] >= 0
+        lift = ShadowLift.at(self.scene, scene_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved],
+                             normals[solved])
         out = np.full((len(points), 3), np.nan)
-        out[solved] = self.direct.irradiance(points[solved], normals[solved], self.state.elements.patch[leaf],
-                                             samples_per_edge, seed_offset, lift) / np.pi
+        out[solved] = self.direct.irradiance(points[solved], normals[solved], samples_per_edge, seed_offset,
+                                             lift) / np.pi
         return out
 
-    def indirect_light(self, scene_triangle: np.ndarray, barycentric: np.ndarray,
-                       exposed_weight: bool = False) -> np.ndarray:
-        """(m, 3) indirect light (total minus direct at the element centroids), interpolated from the corners
-        (averaged by exposed area with ``exposed_weight``: for lightmap texels, see the module's docstring)."""
-        return self.interpolate(self._corner_indirect_light(exposed_weight), scene_triangle, barycentric)
+    def indirect_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
+                       barycentric: np.ndarray) -> np.ndarray:
+        """(m, 3) indirect light (irradiance / pi: the total minus what ``direct`` gives at the receivers)
+        interpolated at surface points with unit (face) normals; NaN on triangles that were not solved."""
+        return self._interpolate(self._indirect_light(), points, normals, scene_triangle, barycentric)
 
-    def reflected_radiosity(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
-        """(m, 3) reflected radiosity rho H (W m^-2, emission excluded), interpolated from the element corners:
-        what a final-gather ray sees where it lands."""
-        if self._corner_reflected is None:
-            elements = self.state.elements
-            self._corner_reflected = self._nodal_average(elements.reflectance * self.element_irradiance())
-        return self.interpolate(self._corner_reflected, scene_triangle, barycentric)
-
-    def interpolate(self, corner_values: np.ndarray, scene_triangle: np.ndarray,
-                    barycentric: np.ndarray) -> np.ndarray:
-        """(m, k) linear interpolation of (n, 3, k) per-element corner values at surface points; NaN on
-        triangles that were not solved."""
-        solved, leaf, local = self._leaves(scene_triangle, barycentric)
-        out = np.full((len(solved), corner_values.shape[-1]), np.nan)
-        out[solved] = np.einsum("mc,mck->mk", local, corner_values[leaf])
+    def reflected_radiosity(self, scene_triangle: np.ndarray, barycentric: np.ndarray,
+                            side: np.ndarray) -> np.ndarray:
+        """(m, 3) reflected radiosity rho H (W m^-2, emission excluded) of the element side (0 front, 1 back) under
+        each surface point: what a final-gather ray sees where it lands (0 on dead sides and unsolved
+        triangles)."""
+        solved, node = self.pieces(scene_triangle, barycentric)
+        out = np.zeros((len(solved), 3))
+        element = self.elements.node_element[node]
+        face = np.asarray(side, dtype=np.int64)[solved]
+        alive = self.elements.alive[element, face]
+        irradiance = self._irradiance()[element, face]
+        out[solved] = np.where(alive[:, None], self.elements.reflectance[element] * irradiance, 0.0)
         return out
 
-    def _leaves(self, scene_triangle, barycentric) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Solved mask (m,), and for the solved points their element row and barycentrics in the element."""
-        to_mesh, position = self._lookups()
-        mesh_triangle = to_mesh[np.asarray(scene_triangle, dtype=np.int64)]
+    def pieces(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Solved mask (m,) of surface points, and for the solved ones the mesh leaf (piece) under each."""
+        mesh_triangle = self._scene_to_mesh()[np.asarray(scene_triangle, dtype=np.int64)]
         solved = mesh_triangle >= 0
-        node, local = self.mesh.locate(mesh_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved])
-        return solved, position[node], local
-
-    def _lookups(self) -> tuple[np.ndarray, np.ndarray]:
-        """Scene triangle -> mesh triangle (-1 if not solved) and mesh node -> element row, built once."""
-        if self._lookup_tables is None:
-            to_mesh = np.full(len(self.scene.triangles), -1)
-            to_mesh[self.mesh.triangle_scene] = np.arange(len(self.mesh.triangle_scene))
-            position = np.full(len(self.mesh.node_bary), -1)
-            position[self.state.elements.node] = np.arange(self.element_count)
-            self._lookup_tables = (to_mesh, position)
-        return self._lookup_tables
+        node, _ = self.mesh.locate(mesh_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved])
+        return solved, node
 
     def radiosity_mesh(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The element mesh with its light: (V, 3) vertices, (n, 3) triangles, (n, 3, 3) corner light."""
-        vertices, corner_vertex = weld_vertices(self.mesh, self.state.elements.node, self.weld_tolerance_m)
-        return vertices, corner_vertex, self.corner_light()
+        """The pieces of the solve's mesh with their light: (V, 3) vertices, (p, 3) triangles, (p, 3, 3) light
+        at each piece's corners (interpolated, as ``evaluate`` without direct light per point)."""
+        leaves = self.mesh.leaves
+        vertices, corner_vertex = weld_vertices(self.mesh, leaves, self.offset_m / 10)
+        scene_triangle = np.repeat(self.mesh.triangle_scene[self.mesh.node_triangle[leaves]], 3)
+        corner_light = self.evaluate(scene_triangle, self.mesh.node_bary[leaves].reshape(-1, 3))
+        return vertices, corner_vertex, corner_light.reshape(-1, 3, 3)
+
+    def _interpolate(self, values: np.ndarray, points, normals, scene_triangle, barycentric) -> np.ndarray:
+        """(m, 3) per-side values (n, 2, 3) interpolated at surface points (NaN where not solved)."""
+        solved, node = self.pieces(scene_triangle, barycentric)
+        out = np.full((len(solved), 3), np.nan)
+        own = self.elements.node_element[node] * 2 + FRONT
+        out[solved] = self._receiver_field().interpolate(values.reshape(-1, 3), points[solved], normals[solved],
+                                                         own)
+        return out
+
+    def _receiver_field(self) -> ReceiverField:
+        if self._field is None:
+            elements = self.elements
+            self._field = ReceiverField(elements.point.reshape(-1, 3), elements.normal.reshape(-1, 3),
+                                        np.repeat(elements.reach_m, 2), elements.alive.ravel(), self.caster,
+                                        self.offset_m)
+        return self._field
+
+    def _irradiance(self) -> np.ndarray:
+        """(n, 2, 3) irradiance at every receiver, W m^-2, ambient term included."""
+        return self.elements.irradiance + self.ambient_irradiance
+
+    def _total_light(self) -> np.ndarray:
+        """(n, 2, 3) irradiance / pi at every receiver, ambient term included."""
+        return self._irradiance() / np.pi
+
+    def _indirect_light(self) -> np.ndarray:
+        """(n, 2, 3) indirect light at every receiver: its irradiance minus what ``direct`` gives there, over pi
+        (computed once; 0 on dead sides)."""
+        if self._indirect is None:
+            elements = self.elements
+            alive = elements.alive.ravel()
+            points, normals = elements.point.reshape(-1, 3)[alive], elements.normal.reshape(-1, 3)[alive]
+            indirect = np.zeros((2 * elements.count, 3))
+            total = self._irradiance().reshape(-1, 3)[alive]
+            indirect[alive] = np.maximum(total - self.direct.irradiance(points, normals), 0.0) / np.pi
+            self._indirect = indirect.reshape(-1, 2, 3)
+        return self._indirect
+
+    def _scene_to_mesh(self) -> np.ndarray:
+        """Scene triangle -> mesh triangle (-1 if not solved), built once."""
+        if self._to_mesh is None:
+            self._to_mesh = np.full(len(self.scene.triangles), -1)
+            self._to_mesh[self.mesh.triangle_scene] = np.arange(len(self.mesh.triangle_scene))
+        return self._to_mesh

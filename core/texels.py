@@ -22,6 +22,7 @@ from .raycast import RayCaster
 CONSERVATIVE_REACH_TEXELS = 0.5 * np.sqrt(2.0)
 CANDIDATES_PER_CHUNK = 4_000_000
 TANGENT_RAYS = 8
+INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 
 
@@ -155,16 +156,20 @@ def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, point
 
 def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,
                            normals: np.ndarray, offset_m: float) -> np.ndarray:
-    """(m,) True where a surface point is buried in closed geometry (a floor under a box standing on it): seen
-    from ``offset_m`` above it, the rays along the normal and along the eight tangent directions all meet a back
-    face first. An open surface above (a single-sided table top) leaves the tangent rays free, so it does not
-    count."""
+    """(m,) True where a surface point is buried in closed geometry (a floor under a box standing on it, the
+    inside of a closed prop): seen from ``offset_m`` above it, the ray along the normal and the eight rays along
+    the tangent directions all meet a face, and most of them (``INSIDE_BACK_FACES`` of the nine) meet a back face
+    first. An open surface above (a single-sided table top) leaves tangent rays free, so it does not count. (Not
+    every ray need meet a back face: where a box's bottom lies on the floor, a ray meets the two coincident faces
+    at once, and Embree reports either.)"""
     origins, directions = tangent_rays(points, normals, offset_m)
     origins = np.concatenate([origins, points + offset_m * normals])
     directions = np.concatenate([directions, normals])
-    _, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
+    distance, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
     count = len(points)
-    return behind[:count * TANGENT_RAYS].reshape(count, TANGENT_RAYS).all(axis=1) & behind[count * TANGENT_RAYS:]
+    rays = np.concatenate([np.arange(count * TANGENT_RAYS).reshape(count, TANGENT_RAYS),
+                           count * TANGENT_RAYS + np.arange(count)[:, None]], axis=1)
+    return np.isfinite(distance[rays]).all(axis=1) & (behind[rays].sum(axis=1) >= INSIDE_BACK_FACES)
 
 
 def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, points: np.ndarray,

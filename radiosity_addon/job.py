@@ -81,7 +81,7 @@ def solve(job: Job, progress, cancelled) -> None:
 
 def apply(job: Job) -> dict:
     """Write the outputs; returns the report (REPORT.json's contract, docs/design in the README)."""
-    objects, warnings, entries = [], list(job.export.warnings), []
+    objects, warnings, entries = [], list(job.export.warnings) + list(job.solution.warnings), []
     if job.lightmap_plan is not None:  # first: its files are what can still fail, before the .blend changes
         entries = write_lightmap(job.lightmap_plan, [page.light for page in job.lightmaps], _metadata(job),
                                  job.outputs.lightmap_folder)
@@ -100,7 +100,7 @@ def apply(job: Job) -> dict:
         "seconds": time.perf_counter() - job.started,
         "timings": solution.seconds,
         "elements": solution.element_count,
-        "patches": len(solution.state.patches.area_m2),
+        "solve": solution.counts,
         "residual": solution.residual,
         "rays": solution.rays_cast,
         "dropped_triangles": job.export.scene.dropped_triangles,

@@ -36,7 +36,7 @@ def test_shadow_terminator_offset_outside_zero_one_names_the_object(offset):
         make(terminator_offset=[0.1, offset])
 
 
-@pytest.mark.parametrize("reflectance", [(1.0, 0.5, 0.5), (0.5, 1.2, 0.5), (-0.1, 0.5, 0.5)])
+@pytest.mark.parametrize("reflectance", [(1.01, 0.5, 0.5), (0.5, 1.2, 0.5), (-0.1, 0.5, 0.5)])
 def test_reflectance_outside_zero_one_names_the_material(reflectance):
     with pytest.raises(SceneError, match="Material 'Brick'.*reflectance"):
         make(materials=[Material("Brick", reflectance)])

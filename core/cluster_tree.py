@@ -1,0 +1,149 @@
+"""A binary tree of clusters over the elements: the source side of hierarchical radiosity with clustering
+(Hanrahan, Salzman & Aupperle 1991; Smits, Arvo & Greenberg 1994; Sillion 1995).
+
+Built top-down by median splits of the elements' centroids along each node's longest axis, so that every node
+holds a contiguous range ``order[start:end]`` of the elements: sums over a node (its exposed area, its radiated
+power) are differences of prefix sums, O(1) per node and vectorised over all nodes at once. A node's surfaces are split by the direction class of their outward normals (core.geometry.direction_classes:
+six classes, one per axis and sign), and its radiosity is kept per class: a receiver under a sunlit slab gets the
+mean of the slab's underside, not of its top. A node stands for its elements when seen from far enough away
+(core.links); each of its classes is then sampled at ``NODE_SAMPLES`` points, picked at quantiles of the class's
+exposed area, so a node of a hundred elements costs as few shadow rays as one element.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .clusters import SAMPLES
+from .geometry import direction_classes
+from .ragged import concatenated_ranges
+
+NODE_SAMPLES = 4
+
+
+@dataclass
+class ClusterTree:
+    """Nodes of the tree (root 0): element range ``order[start:end]``, children ``left`` / ``right`` (-1 for
+    leaves), bounding box ``low`` / ``high`` (N, 3), m; ``depth`` (N,) below the root; ``element`` (N,) the element
+    of a leaf (-1 for internal nodes); ``leaf_of`` (n,) the leaf node of each element; ``side_class`` (n, 2) the direction class
+    of each element side; ``class_exposed`` (N, 6) each node's exposed area per class, m^2; ``sample``
+    (N, 6, NODE_SAMPLES) flat indices (element x 2 + side) x SAMPLES + k of element samples picked per class at
+    quantiles of its exposed area."""
+
+    order: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    depth: np.ndarray
+    element: np.ndarray
+    leaf_of: np.ndarray
+    side_class: np.ndarray
+    class_exposed: np.ndarray
+    sample: np.ndarray
+
+    @property
+    def node_count(self) -> int:
+        return len(self.start)
+
+    def node_sums(self, values: np.ndarray) -> np.ndarray:
+        """(N, ...) sums over each node's elements of per-element ``values`` (n, ...)."""
+        cumulative = np.concatenate([np.zeros((1,) + values.shape[1:]), np.cumsum(values[self.order], axis=0)])
+        return cumulative[self.end] - cumulative[self.start]
+
+    def class_range(self, side_values: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 6) smallest and largest per-element-side value (n, 2) of every node's live sides in each direction
+        class (+inf and -inf where a node has none), leaves up, one step per level."""
+        low = np.full((self.node_count, 6), np.inf)
+        high = np.full((self.node_count, 6), -np.inf)
+        leaves = self.leaf_of
+        for side in range(2):
+            live = np.flatnonzero(alive[:, side])
+            low[leaves[live], self.side_class[live, side]] = side_values[live, side]
+            high[leaves[live], self.side_class[live, side]] = side_values[live, side]
+        for depth in range(int(self.depth.max(initial=0)) - 1, -1, -1):
+            inner = np.flatnonzero((self.depth == depth) & (self.left >= 0))
+            low[inner] = np.minimum(low[self.left[inner]], low[self.right[inner]])
+            high[inner] = np.maximum(high[self.left[inner]], high[self.right[inner]])
+        return low, high
+
+    def by_class(self, side_values: np.ndarray) -> np.ndarray:
+        """(n, 6, ...) per-element-side values (n, 2, ...) moved to their sides' direction classes."""
+        out = np.zeros((len(side_values), 6) + side_values.shape[2:])
+        rows = np.arange(len(side_values))
+        for side in range(2):
+            out[rows, self.side_class[:, side]] += side_values[:, side]
+        return out
+
+
+def build_tree(centroid: np.ndarray, low: np.ndarray, high: np.ndarray, normal: np.ndarray,
+               sample_exposed_m2: np.ndarray) -> ClusterTree:
+    """The tree over elements with (n, 3) centroids, bounding boxes and unit normals; ``sample_exposed_m2``
+    (n, 2, SAMPLES) is the exposed area each element sample stands for on each side (0 where the sample is
+    buried)."""
+    count = len(centroid)
+    order = np.arange(count)
+    start, end = np.array([0]), np.array([count])
+    left, right, depth = np.array([-1]), np.array([-1]), np.array([0])
+    frontier = np.flatnonzero(end - start > 1)
+    while len(frontier):  # one step per level of the tree
+        s, e = start[frontier], end[frontier]
+        block = np.concatenate([[0], np.cumsum(e - s)[:-1]])
+        local = np.repeat(np.arange(len(frontier)), e - s)
+        position = np.repeat(s, e - s) + concatenated_ranges(e - s)
+        points = centroid[order[position]]
+        axis = np.argmax(np.maximum.reduceat(points, block) - np.minimum.reduceat(points, block), axis=1)
+        coordinate = points[np.arange(len(points)), axis[local]]
+        order[position] = order[position][np.lexsort((coordinate, local))]
+        middle = (s + e) // 2
+        first = len(start)
+        start = np.concatenate([start, np.stack([s, middle], 1).ravel()])
+        end = np.concatenate([end, np.stack([middle, e], 1).ravel()])
+        left = np.concatenate([left, np.full(2 * len(frontier), -1)])
+        right = np.concatenate([right, np.full(2 * len(frontier), -1)])
+        left[frontier] = first + 2 * np.arange(len(frontier))
+        right[frontier] = left[frontier] + 1
+        depth = np.concatenate([depth, np.repeat(depth[frontier] + 1, 2)])
+        frontier = first + np.flatnonzero(end[first:] - start[first:] > 1)
+    element = np.where(left < 0, order[np.minimum(start, count - 1)], -1) if count else np.zeros(0, dtype=np.int64)
+    leaf_of = np.zeros(count, dtype=np.int64)
+    leaf_of[element[left < 0]] = np.flatnonzero(left < 0)
+    tree = ClusterTree(order, start, end, left, right, _range_reduce(np.minimum, low[order], start, end),
+                       _range_reduce(np.maximum, high[order], start, end), depth, element, leaf_of,
+                       direction_classes(np.stack([normal, -normal], axis=1)), np.zeros((len(start), 6)),
+                       np.zeros((len(start), 6, NODE_SAMPLES), dtype=np.int64))
+    tree.class_exposed = tree.node_sums(tree.by_class(sample_exposed_m2.sum(axis=2)))
+    _pick_samples(tree, sample_exposed_m2)
+    return tree
+
+
+def _range_reduce(function, values: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """function.reduce of values[start:end] for every range, by a sparse table over powers of two."""
+    table = [values]
+    while (1 << len(table)) <= len(values):
+        previous, step = table[-1], 1 << (len(table) - 1)
+        table.append(function(previous[:-step], previous[step:]))
+    length = np.maximum(end - start, 1)
+    level = np.floor(np.log2(length)).astype(np.int64)
+    out = np.empty((len(start),) + values.shape[1:])
+    for k in np.unique(level):
+        rows = np.flatnonzero(level == k)
+        out[rows] = function(table[k][start[rows]], table[k][end[rows] - (1 << k)])
+    return out
+
+
+def _pick_samples(tree: ClusterTree, sample_exposed_m2: np.ndarray) -> None:
+    """Per node and direction class, NODE_SAMPLES flat sample indices at the quantiles (k + 1/2) / NODE_SAMPLES
+    of the class's exposed area over the node's element sides (in tree order)."""
+    per_element = 2 * SAMPLES
+    for direction in range(6):
+        in_class = (tree.side_class == direction)[:, :, None]
+        weights = np.where(in_class, sample_exposed_m2, 0.0)[tree.order].ravel()
+        cumulative = np.concatenate([[0.0], np.cumsum(weights)])
+        first, last = cumulative[tree.start * per_element], cumulative[tree.end * per_element]
+        targets = first[:, None] + (last - first)[:, None] * (np.arange(NODE_SAMPLES) + 0.5) / NODE_SAMPLES
+        flat = np.clip(np.searchsorted(cumulative, targets, side="right") - 1, 0, len(weights) - 1)
+        tree.sample[:, direction, :] = tree.order[flat // per_element] * per_element + flat % per_element

@@ -1,0 +1,172 @@
+"""Face clusters: the receiving elements of the hierarchical solver, whatever the input's triangle count.
+
+The receiving triangles are first cut into pieces no longer than the element size (core.mesh.build_mesh: a big
+floor triangle becomes a grid of pieces, a small one stays whole). Pieces are then grouped into elements, as face
+cluster radiosity groups faces (Willmott, Heckbert & Garland 1999):
+
+- pieces at least half the element size long stay elements of their own (a big wall's grid of pieces);
+- smaller pieces group by a grid cell of the element size and a bin of their normal direction (24 bins: a cube
+  face and a quadrant of it), so an element is about as large as the element size and turns one way;
+- then split wherever a piece cannot see its cluster's centre (a ray between the two, lifted off the surface by
+  a quarter of the element size, is blocked): no element straddles a wall, so no element averages the sunlit
+  ground outside with the floor inside.
+
+A million small triangles thus make as many elements as a few large ones covering the same surface. Each element
+keeps ``SAMPLES`` points stratified by area over its pieces (for form factors and probes), the area-weighted
+centroid, normal, reflectance and emission of its pieces.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import triangle_areas, triangle_unit_normals
+from .mesh import CHILDREN, ElementMesh
+from .raycast import RayCaster
+from .scene import Scene
+
+SAMPLES = 4                 # area-stratified sample points per element
+NORMAL_BINS_PER_AXIS = 2    # 6 cube faces x 2 x 2 normal-direction bins
+VISIBILITY_ROUNDS = 3       # re-clustering rounds for pieces that cannot see their cluster's centre
+LIFT_FRACTION = 0.25        # of the element size: how far the visibility test lifts points off the surface
+SMALL_PIECE = 0.5           # pieces whose longest edge is below this share of the element size are clustered
+
+
+@dataclass
+class FaceClusters:
+    """Elements made of mesh pieces.
+
+    piece_node: (P,) mesh node of each piece (the mesh's leaves); piece_element: (P,) its element.
+    Per element (n): area_m2, centroid (n, 3), unit normal (n, 3), low and high (n, 3) corners of its bounding box,
+    reflectance and emitted_exitance (n, 3; exitance = pi x radiance, W m^-2), sample_point and sample_normal
+    (n, SAMPLES, 3: area-stratified points on its pieces and their faces' normals), sample_piece (n, SAMPLES) the
+    piece each lies on, and for elements made of one piece its corners (n, 3, 3; NaN otherwise), for exact
+    point-to-polygon form factors.
+    """
+
+    piece_node: np.ndarray
+    piece_element: np.ndarray
+    area_m2: np.ndarray
+    centroid: np.ndarray
+    normal: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    reflectance: np.ndarray
+    emitted_exitance: np.ndarray
+    sample_point: np.ndarray
+    sample_normal: np.ndarray
+    sample_piece: np.ndarray
+    polygon: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return len(self.area_m2)
+
+
+def normal_bins(normals: np.ndarray) -> np.ndarray:
+    """(m,) direction bin of unit normals: the cube face of the dominant axis and its sign, then a grid of
+    NORMAL_BINS_PER_AXIS^2 cells over the other two components divided by the dominant one."""
+    axis = np.argmax(np.abs(normals), axis=1)
+    rows = np.arange(len(normals))
+    major = normals[rows, axis]
+    others = np.stack([normals[rows, (axis + 1) % 3], normals[rows, (axis + 2) % 3]], axis=1) / \
+        np.where(np.abs(major) > 0, np.abs(major), 1.0)[:, None]
+    cells = np.clip(np.floor((others + 1.0) * 0.5 * NORMAL_BINS_PER_AXIS), 0, NORMAL_BINS_PER_AXIS - 1).astype(int)
+    face = 2 * axis + (major > 0)
+    return (face * NORMAL_BINS_PER_AXIS + cells[:, 0]) * NORMAL_BINS_PER_AXIS + cells[:, 1]
+
+
+def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_size_m: float, offset_m: float,
+                   piece_reflectance: np.ndarray, nodes: np.ndarray | None = None) -> FaceClusters:
+    """Group the mesh's leaves (or the given nodes) into elements of about ``element_size_m`` (see the module
+    docstring); ``piece_reflectance`` (P, 3) is each piece's mean reflectance (textures averaged over it)."""
+    nodes = mesh.leaves if nodes is None else np.asarray(nodes, dtype=np.int64)
+    corners = mesh.corners(nodes)
+    area = triangle_areas(corners)
+    normal = triangle_unit_normals(mesh.triangles[mesh.node_triangle[nodes]])
+    centroid = corners.mean(axis=1)
+    origin = centroid.min(axis=0) if len(centroid) else np.zeros(3)
+    cell = np.floor((centroid - origin) / element_size_m).astype(np.int64)
+    longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
+    alone = np.where(longest >= SMALL_PIECE * element_size_m, np.arange(len(nodes)), -1)
+    key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None]], axis=1)
+    _, element = np.unique(key, axis=0, return_inverse=True)
+    element = element.ravel()
+    lift = LIFT_FRACTION * element_size_m
+    for round_number in range(VISIBILITY_ROUNDS):
+        blocked = _blocked_from_centre(caster, element, centroid, normal, area, lift, offset_m)
+        if not blocked.any():
+            break
+        element = np.unique(np.stack([element, blocked], axis=1), axis=0, return_inverse=True)[1].ravel()
+    emission = np.pi * scene.emitted_radiance[scene.material_index[mesh.triangle_scene[mesh.node_triangle[nodes]]]]
+    return _clusters(nodes, element, corners, area, normal, centroid, piece_reflectance, emission)
+
+
+def _blocked_from_centre(caster: RayCaster, element: np.ndarray, centroid: np.ndarray, normal: np.ndarray,
+                         area: np.ndarray, lift_m: float, offset_m: float) -> np.ndarray:
+    """(P,) True for pieces from whose lifted centroid the lifted centre piece of their cluster (the piece nearest
+    the cluster's area centroid) is hidden."""
+    count = element.max() + 1
+    weight = np.maximum(area, 1e-300)
+    mean = np.stack([np.bincount(element, weights=weight * centroid[:, k], minlength=count) for k in range(3)], 1)
+    mean /= np.bincount(element, weights=weight, minlength=count)[:, None]
+    distance = np.linalg.norm(centroid - mean[element], axis=1)
+    order = np.lexsort((distance, element))
+    first = order[np.r_[True, element[order][1:] != element[order][:-1]]]
+    centre = np.empty(count, dtype=np.int64)
+    centre[element[first]] = first
+    target = centroid[centre[element]] + lift_m * normal[centre[element]]
+    start = centroid + lift_m * normal
+    delta = target - start
+    length = np.linalg.norm(delta, axis=1)
+    test = np.flatnonzero(length > offset_m)
+    blocked = np.zeros(len(element), dtype=bool)
+    blocked[test] = caster.occluded(start[test], delta[test] / length[test, None], length[test] - offset_m)
+    return blocked
+
+
+def _clusters(nodes, element, corners, area, normal, centroid, reflectance, emission) -> FaceClusters:
+    count = int(element.max()) + 1 if len(element) else 0
+    total = np.bincount(element, weights=area, minlength=count)
+    safe = np.maximum(total, 1e-300)[:, None]
+    mean = lambda values: np.stack([np.bincount(element, weights=area * values[:, k], minlength=count)
+                                    for k in range(values.shape[1])], axis=1) / safe
+    element_centroid = mean(centroid)
+    summed_normal = mean(normal)
+    element_normal = summed_normal / np.maximum(np.linalg.norm(summed_normal, axis=1, keepdims=True), 1e-300)
+    order = np.argsort(element, kind="stable")
+    first = np.flatnonzero(np.r_[True, element[order][1:] != element[order][:-1]])
+    low = np.minimum.reduceat(corners.min(axis=1)[order], first)
+    high = np.maximum.reduceat(corners.max(axis=1)[order], first)
+    pieces = np.bincount(element, minlength=count)
+    polygon = np.full((count, 3, 3), np.nan)
+    single = np.flatnonzero(pieces[element] == 1)
+    polygon[element[single]] = corners[single]
+    point, point_normal, piece = _stratified_samples(element, corners, area, normal, count)
+    return FaceClusters(nodes, element, total, element_centroid, element_normal, low, high, mean(reflectance),
+                        mean(emission), point, point_normal, piece, polygon)
+
+
+# A point in each of the four triangles of a 2 x 2 cut of a triangle (core.mesh.CHILDREN), as barycentric weights of
+# its corners: near the centroid of each quarter, but not on it, so that the samples of a grid-aligned mesh do not
+# fall exactly on the planes of other grid-aligned faces (a floor sample on the face of a box standing on it).
+_QUARTERS = np.einsum("c,qck->qk", np.array([0.40, 0.33, 0.27]), CHILDREN)
+
+
+def _stratified_samples(element, corners, area, normal, count) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(n, SAMPLES, 3) points and normals and (n, SAMPLES) pieces: each piece is cut into four equal quarters, and
+    sample k of an element lies in the quarter that holds the element's area quantile (k + 1/2) / SAMPLES, pieces
+    taken in order."""
+    order = np.argsort(element, kind="stable")
+    quarter_area = np.repeat(area[order] / 4.0, 4)
+    quarter_piece = np.repeat(order, 4)
+    quarter_index = np.tile(np.arange(4), len(order))
+    cumulative = np.cumsum(quarter_area)
+    total = np.bincount(element, weights=area, minlength=count)
+    start = np.concatenate([[0.0], np.cumsum(total)[:-1]])
+    targets = start[:, None] + total[:, None] * (np.arange(SAMPLES) + 0.5) / SAMPLES
+    pick = np.minimum(np.searchsorted(cumulative, targets.ravel(), side="right"), len(cumulative) - 1)
+    piece, quarter = quarter_piece[pick], quarter_index[pick]
+    points = np.einsum("mc,mck->mk", _QUARTERS[quarter], corners[piece]).reshape(count, SAMPLES, 3)
+    return points, normal[piece].reshape(count, SAMPLES, 3), piece.reshape(count, SAMPLES)
