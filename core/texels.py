@@ -137,20 +137,24 @@ def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, point
                          normals: np.ndarray, reach_m: float, offset_m: float) -> tuple[np.ndarray, np.ndarray]:
     """Move points that lie inside closed geometry out through the nearest back face along the surface.
 
-    Eight rays per point in the tangent plane, ``reach_m`` long (about a texel; a scalar or one length per point),
-    start ``offset_m`` above the surface; the nearest one that hits a back face (a face turned away from the ray:
-    the point is behind it) moves the point to just past that face. Returns the points and a (m,) mask of those
-    moved.
+    Only points enclosed by geometry (``inside_closed_geometry``) move: a point beside an open shell (a
+    single-sided wall seen from behind, an arch's soffit) is where it should be, and pushing it through the shell
+    would put it in the sunlit space on the other side. Eight rays per enclosed point in the tangent plane,
+    ``reach_m`` long (about a texel; a scalar or one length per point), start ``offset_m`` above the surface; the
+    nearest one that hits a back face (a face turned away from the ray: the point is behind it) moves the point
+    to just past that face. Returns the points and a (m,) mask of those moved.
     """
-    origins, directions = tangent_rays(points, normals, offset_m)
+    out, moved = points.copy(), np.zeros(len(points), dtype=bool)
+    enclosed = np.flatnonzero(inside_closed_geometry(caster, scene_triangles_m, points, normals, offset_m))
+    origins, directions = tangent_rays(points[enclosed], normals[enclosed], offset_m)
     distance, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
-    reach = np.repeat(np.broadcast_to(reach_m, len(points)), TANGENT_RAYS)
+    reach = np.repeat(np.broadcast_to(reach_m, len(points))[enclosed], TANGENT_RAYS)
     distance = np.where(behind & (distance <= reach), distance, np.inf).reshape(-1, TANGENT_RAYS)
     nearest = distance.argmin(axis=1)
-    moved = np.isfinite(distance.min(axis=1))
-    step = distance[moved, nearest[moved]] + 2 * offset_m
-    out = points.copy()
-    out[moved] += directions.reshape(-1, TANGENT_RAYS, 3)[moved, nearest[moved]] * step[:, None]
+    found = np.isfinite(distance.min(axis=1))
+    step = distance[found, nearest[found]] + 2 * offset_m
+    out[enclosed[found]] += directions.reshape(-1, TANGENT_RAYS, 3)[found, nearest[found]] * step[:, None]
+    moved[enclosed[found]] = True
     return out, moved
 
 

@@ -251,3 +251,46 @@ def test_reflectance_at_a_point_reads_its_texture():
     bary = np.array([[0.8, 0.1, 0.1], [0.1, 0.8, 0.1], [1 / 3, 1 / 3, 1 / 3]])
     values = scene.reflectance_at(np.array([0, 0, 2]), bary)
     assert values == pytest.approx(np.array([[0.1, 0.2, 0.3], [0.4, 0.5, 0.6], [0.7, 0.7, 0.7]]))
+
+
+def test_texels_beside_an_open_shell_are_not_pushed_through_it():
+    """A floor beside a single-sided wall whose normal faces the sunlit outside, its inside in the shadow of the
+    wall and a roof, baked at 30 cm texels. A texel centred d = 12 cm inside the wall meets the wall's back face
+    along the floor, but it is not enclosed, so it stays where it is. Cycles jitters a texel's samples over its
+    whole footprint (a one-texel box), so such a texel holds the sunlit floor's light times the share of its
+    footprint beyond the wall, max(0, 1/2 - d / 0.3 m) = 0.1; ours must not exceed that by more than 5% of the
+    sunlit light (pushed through the wall, it held all of it). (12 cm, not 10: our 3 x 3 sub-texel points lie at
+    +-10 cm, and a wall exactly there would split them by rounding.)"""
+    x, texel_m = 0.12, 0.3  # the wall's position: texel centres fall on multiples of 0.3 m, some 12 cm inside it
+    floor = quad((-3, -5, 0), (3, -5, 0), (3, 5, 0), (-3, 5, 0))
+    wall = quad((x, -5, 0), (x, 5, 0), (x, 5, 2), (x, -5, 2))  # normal +x: the sunlit outside
+    roof = quad((-3, -5, 2), (x, -5, 2), (x, 5, 2), (-3, 5, 2))
+    triangles = np.concatenate([floor, wall, roof])
+    sun = SunLight("sun", (-0.3, 0.0, -1.0), 3.0)  # from the +x side
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("plaster", (0.5,) * 3)], lights=[sun])
+    result, layout, corner_uv = lightmap_of(scene, [floor, wall, roof], texels_per_metre=1 / texel_m)
+    texels = rasterize(corner_uv[:2], layout.width, layout.height)
+    points = np.einsum("mc,mck->mk", texels.barycentric, triangles[texels.triangle])
+    light = result.light.reshape(-1, 3)[texels.pixel, 0]
+    distance = x - points[:, 0]
+    beside = texels.centre_inside & (distance > 0.05) & (distance < 0.15)
+    sunlit = np.median(light[texels.centre_inside & (distance < -0.5)])
+    assert beside.sum() >= 5
+    assert (light[beside] <= (np.maximum(0.0, 0.5 - distance[beside] / texel_m) + 0.05) * sunlit).all()
+
+
+def test_corners_buried_under_walls_take_the_light_of_their_visible_face():
+    """A 4 m floor of two triangles whose corners lie inside the closed walls standing on its border (a decimated
+    floor, as imported assets have) under a sun straight above: evaluated at its corners, it is not black but
+    lit as the visible floor is, H / pi = S / pi from the sun, plus a little light off the walls (within +20%)."""
+    floor = quad((0, 0, 0), (4, 0, 0), (4, 4, 0), (0, 4, 0))
+    walls = [box_faces(lo, hi, inward=False) for lo, hi in (((-0.3, -0.3, 0), (4.3, 0.3, 1)),
+                                                             ((-0.3, 3.7, 0), (4.3, 4.3, 1)),
+                                                             ((-0.3, 0.3, 0), (0.3, 3.7, 1)),
+                                                             ((3.7, 0.3, 0), (4.3, 3.7, 1)))]
+    triangles = np.concatenate([floor] + [face for wall in walls for face in wall])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("plaster", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), 2.0)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    corners = solution.evaluate(np.repeat([0, 1], 3), np.tile(np.eye(3), (2, 1)), direct_per_point=True)
+    assert corners[:, 0] == pytest.approx(2.0 / np.pi * 1.1, rel=0.1)
