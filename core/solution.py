@@ -20,9 +20,10 @@ from .raycast import RayCaster
 from .scene import Scene
 from .solver import ConvergenceStep
 from .terminator import ShadowLift
-from .texels import inset
+from .texels import inset, inside_closed_geometry
 
-FRONT, BACK = 0, 1
+FRONT = 0
+UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point to its triangle's centroid
 
 
 @dataclass
@@ -33,7 +34,9 @@ class SolvedElements:
     point, normal: (n, 2, 3) each side's receiver point and unit normal; exposed_m2: (n, 2) the area of each side
     that exchanges light (0: the side is buried in closed geometry, dead); irradiance, direct_irradiance: (n, 2, 3)
     total and direct irradiance at the receivers, W m^-2 (no ambient term); reflectance, emitted_exitance: (n, 3);
-    area_m2: (n,); reach_m: (n,) how far from its receiver an element's value is interpolated.
+    area_m2: (n,); reach_m: (n,) how far from its receiver an element's value is interpolated; indirect_irradiance
+    (n, 2, 3) or None: what the receivers gather from reflected light, where the solve keeps it apart (else
+    outputs take the irradiance minus the direct light evaluated at the receivers).
     """
 
     node_element: np.ndarray
@@ -46,6 +49,7 @@ class SolvedElements:
     emitted_exitance: np.ndarray
     area_m2: np.ndarray
     reach_m: np.ndarray
+    indirect_irradiance: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -107,7 +111,7 @@ class Solution:
         reflectance get 0, as in Cycles' Diffuse bake without Color (it divides by the albedo).
         """
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
-        barycentric = np.asarray(barycentric, dtype=np.float64)
+        barycentric = self._uncovered(scene_triangle, np.asarray(barycentric, dtype=np.float64))
         points = np.einsum("mc,mck->mk", barycentric, self.scene.triangles[scene_triangle])
         normals = triangle_unit_normals(self.scene.triangles[scene_triangle])
         solved, node = self.pieces(scene_triangle, barycentric)
@@ -119,6 +123,26 @@ class Solution:
             light = self.direct_light(points, shading, scene_triangle, barycentric) + \
                 self.indirect_light(points, normals, scene_triangle, barycentric)
         return self.black_stays_black(light, scene_triangle)
+
+    def _uncovered(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+        """Barycentrics of the points, those inside closed geometry (a decimated floor's corner under a wall)
+        moved towards their triangle's centroid, to the first of ``UNCOVER_STEPS`` that is not: a vertex takes the
+        light of the nearest visible point of its own face, as a texel is pushed out of geometry, and stays dark
+        only when its whole face is hidden."""
+        triangles = self.scene.triangles[scene_triangle]
+        normals = triangle_unit_normals(triangles)
+        inside = np.flatnonzero(inside_closed_geometry(self.caster, self.scene.triangles, np.einsum(
+            "mc,mck->mk", barycentric, triangles), normals, self.offset_m))
+        out = barycentric.copy()
+        for step in UNCOVER_STEPS:
+            if len(inside) == 0:
+                break
+            moved = (1.0 - step) * barycentric[inside] + step / 3.0
+            points = np.einsum("mc,mck->mk", moved, triangles[inside])
+            still = inside_closed_geometry(self.caster, self.scene.triangles, points, normals[inside], self.offset_m)
+            out[inside[~still]] = moved[~still]
+            inside = inside[still]
+        return out
 
     def black_stays_black(self, light: np.ndarray, scene_triangle: np.ndarray) -> np.ndarray:
         """Light with 0 in the channels where the triangle's reflectance is 0: Cycles' Diffuse bake without Color
@@ -203,8 +227,11 @@ class Solution:
         return self._irradiance() / np.pi
 
     def _indirect_light(self) -> np.ndarray:
-        """(n, 2, 3) indirect light at every receiver: its irradiance minus what ``direct`` gives there, over pi
-        (computed once; 0 on dead sides)."""
+        """(n, 2, 3) indirect light at every receiver, over pi, ambient term included (computed once; 0 on dead
+        sides): what it gathered from reflected light, or else its irradiance minus what ``direct`` gives there."""
+        if self._indirect is None and self.elements.indirect_irradiance is not None:
+            indirect = self.elements.indirect_irradiance + self.ambient_irradiance
+            self._indirect = np.where(self.elements.alive[..., None], indirect, 0.0) / np.pi
         if self._indirect is None:
             elements = self.elements
             alive = elements.alive.ravel()
