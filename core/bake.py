@@ -20,7 +20,7 @@ from . import adaptive
 from .cluster_tree import build_tree
 from .clusters import cluster_pieces
 from .direct import DirectLighting
-from .hierarchical import HierarchicalState, Receivers, node_deviation, sample_exposure, solve
+from .hierarchical import HierarchicalState, Receivers, node_deviation, node_radiosity, sample_exposure, solve
 from .lights import direct_irradiance
 from .links import OPENING, LinkSources, build_links, covered_share, refine_links
 from .mesh import build_mesh, bury, elements_of, node_reflectance
@@ -148,7 +148,8 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     direct[receivers.element, receivers.side] = direct_irradiance(
         scene, caster, receivers.point, receivers.normal, offset, settings.light_samples_per_edge, settings.seed)
     timer.lap("direct light")
-    tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, source_samples)
+    tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, source_samples,
+                      clusters.sample_point, clusters.sample_normal)
     sources = LinkSources.of(tree, clusters)
     links = build_links(sources, receivers.point, receivers.normal, receivers.element, caster, settings.opening,
                         settings.visibility_samples_per_edge, offset, covered, progress, cancelled)
@@ -163,8 +164,9 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     # BF refinement: links to clusters whose surfaces' radiosity varies, where that matters, are refined to their
     # parts; the solve then resumes with them.
     received = state.irradiance[receivers.element, receivers.side].sum(axis=1)
+    mean = node_radiosity(tree, state.radiosity, sending).sum(axis=2).max(axis=1)
     state.links = refine_links(links, sources, caster, receivers.point, receivers.normal,
-                               node_deviation(tree, state.radiosity, sending), received, REFINEMENT_TOLERANCE,
+                               node_deviation(tree, state.radiosity, sending), mean, received, REFINEMENT_TOLERANCE,
                                settings.visibility_samples_per_edge, offset, cancelled)
     timer.lap("link refinement")
     solve(state, settings.residual_threshold, settings.max_shots, lambda: caster.rays_cast, progress, cancelled)
@@ -176,7 +178,7 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     reach = np.maximum(np.linalg.norm(clusters.high - clusters.low, axis=1), size)
     elements = SolvedElements(node_element, point, clusters.normal[:, None, :] * [[1.0], [-1.0]], exposed,
                               state.irradiance, direct, reflectance, clusters.emitted_exitance, clusters.area_m2,
-                              reach)
+                              reach, state.reflected_irradiance())
     counts = {"pieces": len(clusters.piece_node), "element_sides": len(receivers.element),
               "nodes": tree.node_count, "links": state.links.count, "link_bytes": state.links.nbytes}
     return mesh, elements, state, state.ambient(), counts

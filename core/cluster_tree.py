@@ -6,8 +6,11 @@ holds a contiguous range ``order[start:end]`` of the elements: sums over a node 
 power) are differences of prefix sums, O(1) per node and vectorised over all nodes at once. A node's surfaces are split by the direction class of their outward normals (core.geometry.direction_classes:
 six classes, one per axis and sign), and its radiosity is kept per class: a receiver under a sunlit slab gets the
 mean of the slab's underside, not of its top. A node stands for its elements when seen from far enough away
-(core.links); each of its classes is then sampled at ``NODE_SAMPLES`` points, picked at quantiles of the class's
-exposed area, so a node of a hundred elements costs as few shadow rays as one element.
+(core.links); each of its classes is then cut, in tree order, into ``NODE_SAMPLES`` parts of equal exposed area,
+each seen from the receiver at its area-weighted centroid and mean normal (a midpoint rule, second-order
+accurate, where one element's point in each part was first-order and 3% off on the Cornell box's blocks) and
+tested for visibility with one shadow ray to the element sample at its middle: a node of a hundred elements costs
+as few shadow rays as one element.
 """
 from __future__ import annotations
 
@@ -27,9 +30,10 @@ class ClusterTree:
     """Nodes of the tree (root 0): element range ``order[start:end]``, children ``left`` / ``right`` (-1 for
     leaves), bounding box ``low`` / ``high`` (N, 3), m; ``depth`` (N,) below the root; ``element`` (N,) the element
     of a leaf (-1 for internal nodes); ``leaf_of`` (n,) the leaf node of each element; ``side_class`` (n, 2) the direction class
-    of each element side; ``class_exposed`` (N, 6) each node's exposed area per class, m^2; ``sample``
-    (N, 6, NODE_SAMPLES) flat indices (element x 2 + side) x SAMPLES + k of element samples picked per class at
-    quantiles of its exposed area."""
+    of each element side; ``class_exposed`` (N, 6) each node's exposed area per class, m^2; per node, class and
+    part of equal area (N, 6, NODE_SAMPLES): ``sample`` the flat index (element x 2 + side) x SAMPLES + k of the
+    element sample at the part's middle, ``centroid`` and ``normal`` (..., 3) the part's area-weighted centroid
+    and unit mean normal (float32)."""
 
     order: np.ndarray
     start: np.ndarray
@@ -44,6 +48,8 @@ class ClusterTree:
     side_class: np.ndarray
     class_exposed: np.ndarray
     sample: np.ndarray
+    centroid: np.ndarray
+    normal: np.ndarray
 
     @property
     def node_count(self) -> int:
@@ -80,10 +86,10 @@ class ClusterTree:
 
 
 def build_tree(centroid: np.ndarray, low: np.ndarray, high: np.ndarray, normal: np.ndarray,
-               sample_exposed_m2: np.ndarray) -> ClusterTree:
+               sample_exposed_m2: np.ndarray, sample_point: np.ndarray, sample_normal: np.ndarray) -> ClusterTree:
     """The tree over elements with (n, 3) centroids, bounding boxes and unit normals; ``sample_exposed_m2``
     (n, 2, SAMPLES) is the exposed area each element sample stands for on each side (0 where the sample is
-    buried)."""
+    buried), at ``sample_point`` (n, SAMPLES, 3) with the front's ``sample_normal``."""
     count = len(centroid)
     order = np.arange(count)
     start, end = np.array([0]), np.array([count])
@@ -114,9 +120,11 @@ def build_tree(centroid: np.ndarray, low: np.ndarray, high: np.ndarray, normal: 
     tree = ClusterTree(order, start, end, left, right, _range_reduce(np.minimum, low[order], start, end),
                        _range_reduce(np.maximum, high[order], start, end), depth, element, leaf_of,
                        direction_classes(np.stack([normal, -normal], axis=1)), np.zeros((len(start), 6)),
-                       np.zeros((len(start), 6, NODE_SAMPLES), dtype=np.int64))
+                       np.zeros((len(start), 6, NODE_SAMPLES), dtype=np.int64),
+                       np.zeros((len(start), 6, NODE_SAMPLES, 3), dtype=np.float32),
+                       np.zeros((len(start), 6, NODE_SAMPLES, 3), dtype=np.float32))
     tree.class_exposed = tree.node_sums(tree.by_class(sample_exposed_m2.sum(axis=2)))
-    _pick_samples(tree, sample_exposed_m2)
+    _sample_parts(tree, sample_exposed_m2, sample_point, sample_normal)
     return tree
 
 
@@ -135,15 +143,36 @@ def _range_reduce(function, values: np.ndarray, start: np.ndarray, end: np.ndarr
     return out
 
 
-def _pick_samples(tree: ClusterTree, sample_exposed_m2: np.ndarray) -> None:
-    """Per node and direction class, NODE_SAMPLES flat sample indices at the quantiles (k + 1/2) / NODE_SAMPLES
-    of the class's exposed area over the node's element sides (in tree order)."""
+def _sample_parts(tree: ClusterTree, sample_exposed_m2: np.ndarray, sample_point: np.ndarray,
+                  sample_normal: np.ndarray) -> None:
+    """Per node and direction class, the NODE_SAMPLES parts of equal exposed area (consecutive in tree order):
+    their middle samples, area-weighted centroids and mean normals, from prefix sums of area, area x position and
+    area x normal over the element samples (each an atom of area at its point)."""
     per_element = 2 * SAMPLES
+    sides = np.array([1.0, -1.0])[None, :, None, None]
+    points = np.broadcast_to(sample_point[:, None], (len(sample_point), 2, SAMPLES, 3))[tree.order].reshape(-1, 3)
+    normals = (sample_normal[:, None] * sides)[tree.order].reshape(-1, 3)
+    bounds = (np.arange(NODE_SAMPLES + 1) / NODE_SAMPLES)[None, :]
     for direction in range(6):
         in_class = (tree.side_class == direction)[:, :, None]
         weights = np.where(in_class, sample_exposed_m2, 0.0)[tree.order].ravel()
-        cumulative = np.concatenate([[0.0], np.cumsum(weights)])
-        first, last = cumulative[tree.start * per_element], cumulative[tree.end * per_element]
-        targets = first[:, None] + (last - first)[:, None] * (np.arange(NODE_SAMPLES) + 0.5) / NODE_SAMPLES
-        flat = np.clip(np.searchsorted(cumulative, targets, side="right") - 1, 0, len(weights) - 1)
+        area = np.concatenate([[0.0], np.cumsum(weights)])
+        first, last = area[tree.start * per_element], area[tree.end * per_element]
+        cuts = first[:, None] + (last - first)[:, None] * bounds                        # (N, K + 1)
+        position = _prefix_at(area, weights, points, cuts)
+        direction_sum = _prefix_at(area, weights, normals, cuts)
+        share = np.maximum(np.diff(cuts, axis=1), 1e-300)[..., None]
+        tree.centroid[:, direction] = np.diff(position, axis=1) / share
+        summed = np.diff(direction_sum, axis=1)
+        tree.normal[:, direction] = summed / np.maximum(np.linalg.norm(summed, axis=2, keepdims=True), 1e-300)
+        middle = 0.5 * (cuts[:, :-1] + cuts[:, 1:])
+        flat = np.clip(np.searchsorted(area, middle, side="right") - 1, 0, len(weights) - 1)
         tree.sample[:, direction, :] = tree.order[flat // per_element] * per_element + flat % per_element
+
+
+def _prefix_at(area: np.ndarray, weights: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """(..., 3) sum of weights x values over the atoms up to cumulative area ``at`` (...), the atom it falls in
+    counted in part; ``area`` is the prefix sum of ``weights`` (with a leading 0)."""
+    moment = np.concatenate([np.zeros((1, 3)), np.cumsum(weights[:, None] * values, axis=0)])
+    atom = np.clip(np.searchsorted(area, at, side="right") - 1, 0, len(weights) - 1)
+    return moment[atom] + (at - area[atom])[..., None] * values[atom]

@@ -39,7 +39,8 @@ class DirectLighting:
                                       node_reflectance(mesh, scene, mesh.leaves))
             front = np.zeros((clusters.count, 2, SAMPLES))
             front[:, 0] = (clusters.area_m2 / SAMPLES)[:, None]  # emitters shine from the front of their faces
-            tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, front)
+            tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, front,
+                              clusters.sample_point, clusters.sample_normal)
             self.sources, self.exitance = LinkSources.of(tree, clusters), clusters.emitted_exitance
             self.leaves, self.front_class = tree.leaf_of, tree.side_class[:, 0]
 
@@ -63,8 +64,9 @@ class DirectLighting:
         for start in range(0, len(points), step):  # every point with every emitter, a block of points at a time
             rows = np.arange(start, min(start + step, len(points)))
             point, emitter = np.repeat(rows, count), np.tile(np.arange(count), len(rows))
-            factor, _ = link_factors(self.sources, self.caster, points[point], normals[point], self.leaves[emitter],
-                                     samples, self.offset_m, None if lift is None else lift[point])
+            factor, _, _ = link_factors(self.sources, self.caster, points[point], normals[point],
+                                        self.leaves[emitter], samples, self.offset_m,
+                                        None if lift is None else lift[point])
             front = factor[np.arange(len(point)), self.front_class[emitter]][:, None]  # they shine from the front
             total[rows] += (front * self.exitance[emitter]).reshape(len(rows), count, 3).sum(axis=1)
         return total

@@ -28,7 +28,7 @@ from .cluster_tree import ClusterTree
 from .clusters import SAMPLES, FaceClusters
 from .geometry import duplicate_sides
 from .lights import direct_irradiance
-from .links import Links
+from .links import Links, Transfer
 from .mesh import ElementMesh
 from .progress import BakeCancelled, Progress, never_cancelled, no_progress
 from .raycast import RayCaster
@@ -84,7 +84,7 @@ class HierarchicalState:
     """Per element side (n, 2, 3): direct irradiance and total irradiance (W m^-2); per element reflectance
     (n, 3); per side (n, 2) the exposed area and the area that sends light into the scene (0 for isolated sides); the solve's history, the enclosure (the share of the light leaving the
     receivers that lands on the scene, from the links' covered shares), the irradiance each receiver last gathered
-    and what the last iteration added to it (R, 3)."""
+    from reflected light and what the last iteration added to it (R, 3)."""
 
     clusters: FaceClusters
     tree: ClusterTree
@@ -115,6 +115,13 @@ class HierarchicalState:
     @property
     def residual(self) -> float:
         return self.history[-1].residual if self.history else 0.0
+
+    def reflected_irradiance(self) -> np.ndarray:
+        """(n, 2, 3) the irradiance each side gathers from reflected light (its indirect light), W m^-2."""
+        out = np.zeros_like(self.irradiance)
+        if self.gathered is not None:
+            out[self.receivers.element, self.receivers.side] = self.gathered
+        return out
 
     def ambient(self) -> np.ndarray:
         """(n, 2, 3) irradiance the unfinished iterations would still add: each side's last increment continued as
@@ -153,37 +160,26 @@ def node_deviation(tree: ClusterTree, radiosity: np.ndarray, exposed_m2: np.ndar
 def solve(state: HierarchicalState, residual_threshold: float, max_iterations: int,
           rays=lambda: 0, progress: Progress = no_progress, cancelled=never_cancelled) -> HierarchicalState:
     """Jacobi iterations, from the state's irradiance, until the change in radiated power is below
-    ``residual_threshold`` of the injected power (emission plus first reflection of direct light).
-
-    In each gather, the part that comes through sampled (cluster) links is scaled, per channel, so that the power
-    the live sides receive equals the power they radiate onto solved surfaces, sum A_j B_j C_j with C_j each
-    side's covered share (core.links): the energy balance every exact solve satisfies (Cohen & Wallace 1993,
-    ch. 4). A cluster's mean radiosity times its form factor misses the correlation between the two (a lamp's
-    pool of light is also the part of a wall nearest to most receivers), which left a closed room lit by a point
-    light 4.5% short of its closed-form indirect light; exact links (to one-piece elements) are left as they
-    are."""
+    ``residual_threshold`` of the injected power (emission plus first reflection of direct light). Emitted and
+    reflected radiosity are gathered apart (_BalancedTransfer): the light straight from emissive surfaces once,
+    the reflected light (``gathered``: the indirect light outputs interpolate) in every iteration."""
     started = time.perf_counter()
     receivers, links = state.receivers, state.links
-    count = len(receivers.element)
     area = state.exposed_m2[receivers.element, receivers.side][:, None]
-    radiosity = state.radiosity
     injected = float(((state.emission + state.reflectance[:, None, :] * state.direct_irradiance) *
                       state.exposed_m2[..., None]).sum())
     first = state.history[-1].shots + 1 if state.history else 1
-    exact_links, sampled_links = links.transfer(links.exact), links.transfer(~links.exact)
+    transfer = _BalancedTransfer(state, links.transfer(links.exact), links.transfer(~links.exact), area)
+    emitted = transfer.gather(state.emission)  # the same in every iteration: light straight from emitters
+    radiosity = state.radiosity
     for iteration in range(first, first + max_iterations):
         if cancelled():
             raise BakeCancelled("Bake cancelled during the radiosity solve.")
-        means = node_radiosity(state.tree, radiosity, state.sending_m2)
-        exact, sampled = exact_links.gather(means, count), sampled_links.gather(means, count)
-        sent = (radiosity[receivers.element, receivers.side] * area * links.covered[:, None]).sum(axis=0)
-        received = (sampled * area).sum(axis=0)
-        scale = np.clip((sent - (exact * area).sum(axis=0)) / np.maximum(received, 1e-300), 0.5, 2.0)
-        gathered = exact + sampled * np.where(received > 0, scale, 1.0)
+        reflected = transfer.gather(radiosity - state.emission)
         state.irradiance = state.direct_irradiance.copy()
-        state.irradiance[receivers.element, receivers.side] += gathered
-        state.increment = gathered - (0.0 if state.gathered is None else state.gathered)
-        state.gathered = gathered
+        state.irradiance[receivers.element, receivers.side] += emitted + reflected
+        state.increment = reflected - (0.0 if state.gathered is None else state.gathered)
+        state.gathered = reflected
         updated = state.radiosity
         change = updated - radiosity
         radiosity = updated
@@ -197,3 +193,27 @@ def solve(state: HierarchicalState, residual_threshold: float, max_iterations: i
     power = (radiosity[receivers.element, receivers.side] * area).sum(axis=1)
     state.enclosure = float(links.covered @ power / max(power.sum(), 1e-300))
     return state
+
+
+class _BalancedTransfer:
+    """The links' transfer of a radiosity (n, 2, 3) to the receivers' irradiance (R, 3), with the part that comes
+    through sampled (cluster) links scaled, per channel, so that the power the live sides receive equals the power
+    they radiate onto solved surfaces, sum A_j B_j C_j with C_j each side's covered share (core.links): the energy
+    balance every exact solve satisfies (Cohen & Wallace 1993, ch. 4). A cluster's mean radiosity times its form
+    factor misses the correlation between the two (a lamp's pool of light is also the part of a wall nearest to
+    most receivers), which left a closed room lit by a point light 4.5% short of its closed-form indirect light;
+    exact links (to one-piece elements) are left as they are."""
+
+    def __init__(self, state: HierarchicalState, exact: Transfer, sampled: Transfer, area: np.ndarray):
+        self.state, self.exact, self.sampled, self.area = state, exact, sampled, area
+
+    def gather(self, radiosity: np.ndarray) -> np.ndarray:
+        state, receivers = self.state, self.state.receivers
+        count = len(receivers.element)
+        means = node_radiosity(state.tree, radiosity, state.sending_m2)
+        exact, sampled = self.exact.gather(means, count), self.sampled.gather(means, count)
+        sent = (radiosity[receivers.element, receivers.side] * self.area *
+                state.links.covered[:, None]).sum(axis=0)
+        received = (sampled * self.area).sum(axis=0)
+        scale = np.clip((sent - (exact * self.area).sum(axis=0)) / np.maximum(received, 1e-300), 0.5, 2.0)
+        return exact + sampled * np.where(received > 0, scale, 1.0)

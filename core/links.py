@@ -2,8 +2,10 @@
 
 Each receiver (a side of an element, or any surface point) links to a cut through the tree, as Barnes & Hut
 traverse an octree: a node is accepted when it is small as seen from the receiver (its bounding box's half
-diagonal under ``opening`` times its distance), else opened; leaves (elements) are always accepted; nodes entirely
-below the receiver's tangent plane, and the receiver's own element, are skipped. So each receiver holds about a
+diagonal under ``opening`` times its distance) and its area could not subtend a form factor over
+``FORM_FACTOR_LIMIT`` (A / (pi d^2): Hanrahan et al.'s bound, so that no sampled link carries much light), else
+opened; leaves (elements) are always accepted; nodes entirely below the receiver's tangent plane, and the
+receiver's own element, are skipped. So each receiver holds about a
 few hundred links however many elements the scene has (hierarchical radiosity with clustering: Hanrahan, Salzman
 & Aupperle 1991; Smits, Arvo & Greenberg 1994), and memory is O(receivers x links), not O(n^2).
 
@@ -13,22 +15,18 @@ class of its outward normal), and the gather multiplies each by the node's mean 
 
 - An element of one piece: Lambert's exact point-to-polygon factor (core.formfactor) times the visible share of
   s x s stratified points on it, as for the classic patches.
-- Any other node: at its sample points (core.cluster_tree), each standing for an equal share a of its class's
-  exposed area as a square of area a in the sample's plane, Lambert's exact factor to that square (exact at any
+- Any other node: each part of equal area a of each of its classes (core.cluster_tree) as a square of area a
+  at the part's centroid, in the plane of its mean normal; Lambert's exact factor to that square (exact at any
   angle and distance, where Wallace et al.'s disk formula a cos cos / (pi r^2 + a) is exact only on its axis and
-  fell 5-10% short off it), with one shadow ray per sample.
+  fell 5-10% short off it), or the point kernel a cos cos / (pi r^2) for a square far away; with one shadow ray
+  per part.
 
-Those few samples estimate a large node's form factor to a few percent, and not without bias; in a bright closed
-room a 1% excess of the rows' sums is a several-percent excess of light. So each receiver's row is made to conserve
-energy where that is certain, as a hemicube's delta form factors sum to one (Cohen & Greenberg 1985):
-``COVERAGE_SAMPLES^2`` stratified cosine-weighted rays measure the share C of its hemisphere that solved surfaces
-cover, and the sampled links' sum S is replaced by the inverse-variance blend of S and C minus the exact links'
-sum, the coverage's error taken as that of jittered sampling, 0.5 sqrt(C (1 - C) + 1/N^2) N^(-3/4) for N rays
-(1/N^2: when every ray hits, what is left open is smaller than one ray's cell), and the sampled sum's as
-``SAMPLED_ERROR`` of it. In a closed room (C = 1, every ray hits) the row then sums to one (the furnace and the
-point-lit cube come out exact); where part of the hemisphere is open, the coverage's own noise is larger and the
-links keep their estimate (a plane under an emissive panel: 2.8% too bright with a 3% error assumed, 0.9% with
-0.5%).
+No receiver sees more than its hemisphere, so a row is capped to sum to one. The energy the sampled links may
+miss or add is balanced in the solve (core.hierarchical), against each receiver's ``covered`` share, the share of
+its hemisphere that solved surfaces cover, measured with ``COVERAGE_SAMPLES^2`` stratified cosine-weighted rays.
+(Scaling each row to its own covered share was tried and dropped: a few percent of the hemisphere open near the
+horizon is often missed by all 64 rays, and rows made mostly of exact near links then had their sampled far links
+inflated by 40%.)
 """
 from __future__ import annotations
 
@@ -45,9 +43,9 @@ from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
 OPENING = 0.5
+FORM_FACTOR_LIMIT = 0.02      # nor is a node accepted whose area could subtend more than this form factor
 NEAR_SHARE = 0.02             # a sample square closer than this (a / (pi r^2)) takes Lambert's exact factor
 COVERAGE_SAMPLES = 8          # per edge: 64 stratified rays per receiver measure how much of its hemisphere is covered
-SAMPLED_ERROR = 0.005         # the weight the sampled links keep against the coverage (see the module docstring)
 PAIRS_PER_STEP = 1 << 16      # link candidates evaluated at once (memory: ~ 24 samples x 200 bytes each)
 RECEIVERS_PER_STEP = 4096     # receivers traversed at once
 
@@ -56,14 +54,16 @@ RECEIVERS_PER_STEP = 4096     # receivers traversed at once
 class Links:
     """receiver (L,) and node (L,) of every link, int32; factor (L, 6) float32: F(receiver -> the node's surfaces
     of each direction class); unoccluded (L,) float32: the link's form factor without visibility (for its error
-    bound); exact (L,): the link's factor is exact (a one-piece element), not sampled; covered (R,): the share of
-    each receiver's hemisphere covered by solved surfaces, which its row sums to."""
+    bound); exact (L,): the link's factor is exact (a one-piece element), not sampled; partial (L,): some of the
+    link's shadow rays were blocked and some not; covered (R,): the share of each receiver's hemisphere covered
+    by solved surfaces, which its row sums to."""
 
     receiver: np.ndarray
     node: np.ndarray
     factor: np.ndarray
     unoccluded: np.ndarray
     exact: np.ndarray
+    partial: np.ndarray
     covered: np.ndarray
 
     @property
@@ -77,7 +77,7 @@ class Links:
     @property
     def columns(self) -> tuple:
         """The per-link arrays, in the order Links takes them."""
-        return self.receiver, self.node, self.factor, self.unoccluded, self.exact
+        return self.receiver, self.node, self.factor, self.unoccluded, self.exact, self.partial
 
     def subset(self, rows: np.ndarray) -> "Links":
         return Links(*(column[rows] for column in self.columns), self.covered)
@@ -126,8 +126,8 @@ def build_links(sources: LinkSources, points: np.ndarray, normals: np.ndarray, o
                 caster: RayCaster, opening: float, samples_per_edge: int, offset_m: float, covered: np.ndarray,
                 progress: Progress = no_progress, cancelled=never_cancelled) -> Links:
     """Links of receivers at (R, 3) points with unit (R, 3) normals (``own_element`` (R,): the element each lies
-    on, -1 for none), with their form factors and visibility, each row scaled towards the ``covered`` share (R,)
-    of its hemisphere (``covered_share``)."""
+    on, -1 for none), with their form factors and visibility; ``covered`` (R,) is each one's covered share
+    (``covered_share``)."""
     parts = []
     for first in range(0, len(points), RECEIVERS_PER_STEP):
         if cancelled():
@@ -142,7 +142,7 @@ def build_links(sources: LinkSources, points: np.ndarray, normals: np.ndarray, o
         progress(rows[-1] / max(1, len(points) - 1), f"Linking: {rows[-1] + 1} of {len(points)} receivers")
     parts.append(_links_part(sources, caster, points, normals, np.zeros(0, int), np.zeros(0, int), 1, offset_m))
     links = Links(*(np.concatenate(column) for column in zip(*parts)), covered)
-    _conserve_energy(links)
+    _cap_rows(links)
     return links
 
 
@@ -150,23 +150,25 @@ def _links_part(sources, caster, points, normals, receiver, node, samples_per_ed
     """Columns of Links (receiver, node, factor, unoccluded, exact) for (receiver, node) pairs, in their storage
     types: those with some factor, and those to clusters whose samples are all hidden but that are not out of
     sight (refinement may still find a visible bright part in them)."""
-    factor, unoccluded = link_factors(sources, caster, points[receiver], normals[receiver], node, samples_per_edge,
-                                      offset_m)
+    factor, unoccluded, partial = link_factors(sources, caster, points[receiver], normals[receiver], node,
+                                               samples_per_edge, offset_m)
     keep = (factor.sum(axis=1) > 0) | ((unoccluded > 0) & (sources.tree.left[node] >= 0))
     return (receiver[keep].astype(np.int32), node[keep].astype(np.int32), factor[keep].astype(np.float32),
-            unoccluded[keep].astype(np.float32), _exact(sources, node[keep]))
+            unoccluded[keep].astype(np.float32), _exact(sources, node[keep]), partial[keep])
 
 
 def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
-                 deviation: np.ndarray, irradiance: np.ndarray, tolerance: float, samples_per_edge: int,
-                 offset_m: float, cancelled=never_cancelled) -> Links:
+                 deviation: np.ndarray, radiosity: np.ndarray, irradiance: np.ndarray, tolerance: float,
+                 samples_per_edge: int, offset_m: float, cancelled=never_cancelled) -> Links:
     """Links whose error bound is too large replaced by links to the node's children, until none is (Hanrahan,
-    Salzman & Aupperle 1991's BF refinement). The bound is the visible factor per class times the node's
-    ``deviation`` (N, 6), the largest difference between one of its surfaces' radiosity and its class mean, plus
-    the hidden part of the unoccluded factor times its largest deviation (four samples may all miss the bright
-    part of a cluster); too large is over ``tolerance`` times the receiver's ``irradiance`` (R,). A link to a
-    cluster holding a lamp's panel or a sunlit patch, seen from nearby, thus becomes links to its parts. Links
-    left with no visible factor are dropped, and rows are scaled to their covered share again."""
+    Salzman & Aupperle 1991's BF refinement, with their refinement of partly visible links). The bound is the
+    visible factor per class times the node's ``deviation`` (N, 6), the largest difference between one of its
+    surfaces' radiosity and its class mean, plus the hidden part of the unoccluded factor times its largest
+    deviation (four samples may all miss the bright part of a cluster); for a partly visible link, whose few
+    shadow rays tell its visible share only in steps, the unoccluded factor times the node's mean radiosity
+    ``radiosity`` (N,) is its bound. Too large is over ``tolerance`` times the receiver's ``irradiance`` (R,). A
+    link to a cluster holding a lamp's panel or a sunlit patch, or half hidden by a block, seen from nearby, thus
+    becomes links to its parts. Links left with no visible factor are dropped, and rows capped again."""
     tree = sources.tree
     settled, pending = [], links
     while True:
@@ -175,6 +177,7 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
         spread = deviation[pending.node]
         hidden = np.maximum(pending.unoccluded - pending.factor.sum(axis=1), 0.0)
         bound = np.einsum("ls,ls->l", pending.factor, spread) + hidden * spread.max(axis=1)
+        bound = np.maximum(bound, pending.partial * pending.unoccluded * radiosity[pending.node])
         refine = (tree.left[pending.node] >= 0) & (bound > tolerance * irradiance[pending.receiver])
         settled.append(pending.subset(~refine))
         if not refine.any():
@@ -187,7 +190,7 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
         pending = Links(*(np.concatenate(column) for column in zip(*parts)), links.covered)
     links = Links(*(np.concatenate(column) for column in zip(*[part.columns for part in settled])), links.covered)
     links = links.subset(links.factor.sum(axis=1) > 0)
-    _conserve_energy(links)
+    _cap_rows(links)
     return links
 
 
@@ -207,23 +210,10 @@ def covered_share(caster: RayCaster, points: np.ndarray, normals: np.ndarray, of
     return share
 
 
-def _conserve_energy(links: Links) -> None:
-    """Scale each receiver's sampled (not exact) links towards a row that sums to its covered share (see the
-    module docstring)."""
-    covered, exact = links.covered, links.exact
-    total = links.factor.sum(axis=1)
-    exact_sum = np.bincount(links.receiver, weights=total * exact, minlength=len(covered))
-    sampled_sum = np.bincount(links.receiver, weights=total * ~exact, minlength=len(covered))
-    rays = COVERAGE_SAMPLES ** 2
-    coverage_variance = (0.5 * rays ** -0.75) ** 2 * (covered * (1.0 - covered) + 1.0 / rays ** 2)
-    sampled_variance = np.maximum((SAMPLED_ERROR * sampled_sum) ** 2, 1e-300)
-    blend = (sampled_sum / sampled_variance + (covered - exact_sum) / coverage_variance) / \
-        (1.0 / sampled_variance + 1.0 / coverage_variance)
-    scale = np.clip(blend / np.maximum(sampled_sum, 1e-300), 0.5, 2.0)
-    scale = np.where(sampled_sum > 0, scale, 1.0)
-    links.factor[~exact] *= scale[links.receiver[~exact], None].astype(np.float32)
-    # No receiver sees more than its hemisphere: a row summing over one would make light out of nothing.
-    row = np.bincount(links.receiver, weights=links.factor.sum(axis=1), minlength=len(covered))
+def _cap_rows(links: Links) -> None:
+    """Scale down the rows that sum to more than one: no receiver sees more than its hemisphere, and a row over
+    one would make light out of nothing."""
+    row = np.bincount(links.receiver, weights=links.factor.sum(axis=1), minlength=len(links.covered))
     links.factor *= (1.0 / np.maximum(row, 1.0))[links.receiver, None].astype(np.float32)
 
 
@@ -249,7 +239,9 @@ def accepted_nodes(tree: ClusterTree, points: np.ndarray, normals: np.ndarray, o
         height = np.einsum("mk,mk->m", relative, normal) + (np.abs(normal) * half).sum(axis=1)
         leaf = tree.left[node] < 0
         keep = (height > offset_m) & ~(leaf & (tree.element[node] == own_element[receiver]))
-        far = np.einsum("mk,mk->m", half, half) < (opening ** 2) * np.einsum("mk,mk->m", relative, relative)
+        distance2 = np.einsum("mk,mk->m", relative, relative)
+        far = (np.einsum("mk,mk->m", half, half) < (opening ** 2) * distance2) & \
+            (tree.class_exposed[node].sum(axis=1) < FORM_FACTOR_LIMIT * np.pi * distance2)
         accept = keep & (leaf | far)
         accepted_receivers.append(receiver[accept])
         accepted.append(node[accept])
@@ -261,11 +253,12 @@ def accepted_nodes(tree: ClusterTree, points: np.ndarray, normals: np.ndarray, o
 
 def link_factors(sources: LinkSources, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
                  node: np.ndarray, samples_per_edge: int, offset_m: float,
-                 lift=None) -> tuple[np.ndarray, np.ndarray]:
-    """(q, 6) F(point -> node's surfaces of each direction class) with visibility, and (q,) the same without
-    visibility, summed over classes, for q (point, node) pairs. ``lift`` (core.terminator.ShadowLift per point,
-    optional) starts the shadow rays of smooth-shaded points on their smooth surface."""
-    factor, unoccluded = np.zeros((len(node), 6)), np.zeros(len(node))
+                 lift=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, 6) F(point -> node's surfaces of each direction class) with visibility, (q,) the same without
+    visibility, summed over classes, and (q,) whether some of the shadow rays were blocked and some not, for q
+    (point, node) pairs. ``lift`` (core.terminator.ShadowLift per point, optional) starts the shadow rays of
+    smooth-shaded points on their smooth surface."""
+    factor, unoccluded, partial = np.zeros((len(node), 6)), np.zeros(len(node)), np.zeros(len(node), dtype=bool)
     element = sources.tree.element[node]
     exact = _exact(sources, node)
     rows = np.flatnonzero(exact)
@@ -275,9 +268,10 @@ def link_factors(sources: LinkSources, caster: RayCaster, points: np.ndarray, no
             samples_per_edge, offset_m, _rows(lift, rows))
     rows = np.flatnonzero(~exact)
     if len(rows):
-        factor[rows], unoccluded[rows] = _sampled_factors(sources, caster, points[rows], normals[rows], node[rows],
-                                                          offset_m, _rows(lift, rows))
-    return factor, unoccluded
+        factor[rows], unoccluded[rows], partial[rows] = _sampled_factors(sources, caster, points[rows],
+                                                                         normals[rows], node[rows], offset_m,
+                                                                         _rows(lift, rows))
+    return factor, unoccluded, partial
 
 
 def sample_squares(points: np.ndarray, normals: np.ndarray, area_m2: np.ndarray) -> np.ndarray:
@@ -310,7 +304,8 @@ def _polygon_factors(caster, points, normals, polygon, side_class, samples_per_e
 
 def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset_m, lift):
     """(q, 6): per direction class, the factor to the node's sample squares of that class that face the point,
-    each seen or not by one shadow ray; and (q,) the factor to all of them, seen or not. A square of area a whose
+    each seen or not by one shadow ray; (q,) the factor to all of them, seen or not; and (q,) whether some were
+    seen and some not. A square of area a whose
     a / (pi r^2) is below ``NEAR_SHARE`` takes the point kernel a cos cos / (pi r^2) (within 2% of Lambert's
     exact factor to it); nearer ones take the exact factor."""
     tree = sources.tree
@@ -318,8 +313,8 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
     flat = tree.sample[node[pair], direction]                           # (m, K): (element x 2 + side) x S + k
     element_side = flat // SAMPLES
     sample = (element_side // 2) * SAMPLES + flat % SAMPLES
-    target = sources.sample_point[sample]                               # (m, K, 3)
-    target_normal = sources.sample_normal[sample] * (1.0 - 2.0 * (element_side % 2))[..., None]
+    target = tree.centroid[node[pair], direction].astype(np.float64)   # (m, K, 3): each part's centroid
+    target_normal = tree.normal[node[pair], direction].astype(np.float64)
     area = np.broadcast_to((tree.class_exposed[node[pair], direction] / NODE_SAMPLES)[:, None], flat.shape)
     delta = target - points[pair, None, :]
     distance2 = np.maximum((delta * delta).sum(axis=2), 1e-300)
@@ -345,10 +340,18 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
             ray = delta.reshape(-1, 3)[facing]
             origin = lift[owner].origins(origin[:, None, :], (ray / np.linalg.norm(ray, axis=1,
                                                                                      keepdims=True))[:, None, :])[:, 0]
-        end = (target + offset_m * target_normal).reshape(-1, 3)[facing]
+        on_surface = sources.sample_point[sample].reshape(-1, 3)[facing]
+        side_normal = (sources.sample_normal[sample] * (1.0 - 2.0 * (element_side % 2))[..., None]).reshape(-1, 3)
+        end = on_surface + offset_m * side_normal[facing]
         ray = end - origin
         length = np.maximum(np.linalg.norm(ray, axis=1), 1e-300)
-        weight[facing[caster.occluded(origin, ray / length[:, None], length)]] = 0.0
+        blocked = caster.occluded(origin, ray / length[:, None], length)
+        weight[facing[blocked]] = 0.0
+        owner = pair[facing // flat.shape[1]]
+        hidden = np.bincount(owner, weights=blocked, minlength=len(node))
+        partial = (hidden > 0) & (hidden < np.bincount(owner, minlength=len(node)))
+    else:
+        partial = np.zeros(len(node), dtype=bool)
     factor = np.bincount(pair * 6 + direction, weights=weight.reshape(flat.shape).sum(axis=1),
                          minlength=6 * len(node)).reshape(-1, 6)
-    return factor, unoccluded
+    return factor, unoccluded, partial
