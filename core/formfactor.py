@@ -14,7 +14,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .geometry import tangent_frames, triangle_sample_barycentrics
+from .geometry import lengths, tangent_frames, triangle_sample_barycentrics
 from .raycast import RayCaster
 
 _TINY = 1e-300
@@ -71,7 +71,7 @@ def _contour_sum(rel: np.ndarray, normals: np.ndarray) -> np.ndarray:
     sin_beta = np.sqrt(cx * cx + cy * cy + cz * cz)
     beta = np.arctan2(sin_beta, x * x2 + y * y2 + z * z2)
     projected = cx * normals[:, :1] + cy * normals[:, 1:2] + cz * normals[:, 2:3]
-    return np.abs((beta * projected / np.maximum(sin_beta, _TINY)).sum(axis=1)) / (2.0 * np.pi)
+    return np.abs(np.einsum("mv->m", beta * projected / np.maximum(sin_beta, _TINY))) / (2.0 * np.pi)
 
 
 def visible_fraction(caster: RayCaster, points: np.ndarray, normals: np.ndarray, targets: np.ndarray,
@@ -91,17 +91,17 @@ def visible_fraction(caster: RayCaster, points: np.ndarray, normals: np.ndarray,
     origins = np.broadcast_to((points + offset_m * normals)[:, None, :], targets.shape)
     if lift is not None:
         delta = targets - origins
-        origins = lift.origins(origins, delta / np.maximum(np.linalg.norm(delta, axis=2), _TINY)[..., None])
+        origins = lift.origins(origins, delta / np.maximum(lengths(delta), _TINY)[..., None])
     delta = targets - origins
-    distance = np.maximum(np.linalg.norm(delta, axis=2), _TINY)
+    distance = np.maximum(lengths(delta), _TINY)
     direction = delta / distance[..., None]
     cos_receiver = np.maximum(np.einsum("msk,mk->ms", direction, normals), 0.0)
     cos_source = np.abs(np.einsum("msk,mk->ms", direction, target_normals))
     weight = cos_receiver * cos_source / distance ** 2
-    weight = np.where(weight.sum(axis=1, keepdims=True) > 0, weight, 1.0)
+    weight = np.where(np.einsum("ms->m", weight)[:, None] > 0, weight, 1.0)
     blocked = caster.occluded(origins.reshape(-1, 3), direction.reshape(-1, 3), distance.ravel())
     visible = weight * ~blocked.reshape(weight.shape)
-    return visible.sum(axis=1) / weight.sum(axis=1)
+    return np.einsum("ms->m", visible) / np.einsum("ms->m", weight)
 
 
 def point_to_triangle_with_visibility(caster: RayCaster, points: np.ndarray, normals: np.ndarray,
@@ -140,7 +140,7 @@ def hemicube_delta_form_factors(resolution: int) -> tuple[np.ndarray, np.ndarray
     sides = [np.stack(v, -1) for v in ((one, s, z), (-one, s, z), (s, one, z), (s, -one, z))]
     directions = np.concatenate([top_dirs] + sides)
     weights = np.concatenate([top_df] + [side_df] * 4)
-    return directions / np.linalg.norm(directions, axis=1, keepdims=True), weights
+    return directions / lengths(directions)[:, None], weights
 
 
 def hemicube_item_buffer(caster: RayCaster, origins: np.ndarray, normals: np.ndarray, resolution: int,

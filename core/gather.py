@@ -50,7 +50,7 @@ def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_e
     triangles = solution.scene.triangles
     above = np.einsum("mrk,mk->mr", directions.reshape(count, rays, 3), face_normals).ravel() > 0
     landed = np.flatnonzero((hit >= 0) & above)
-    side = ((triangle_unit_normals(triangles[hit[landed]]) * directions[landed]).sum(axis=1) > 0).astype(np.int64)
+    side = (np.einsum("mk,mk->m", triangle_unit_normals(triangles[hit[landed]]), directions[landed]) > 0).astype(np.int64)
     radiosity = np.zeros((len(hit), 3))
     radiosity[landed] = solution.reflected_radiosity(hit[landed], bary[landed], side)
     return radiosity.reshape(count, rays, 3).mean(axis=1) / np.pi

@@ -6,23 +6,28 @@ from functools import lru_cache
 import numpy as np
 
 
+def lengths(vectors: np.ndarray) -> np.ndarray:
+    """Euclidean lengths along the last axis (einsum: numpy's sum over a length-3 axis is many times slower)."""
+    return np.sqrt(np.einsum("...k,...k->...", vectors, vectors))
+
+
 def triangle_areas(triangles: np.ndarray) -> np.ndarray:
     """Areas of (..., 3, 3) triangles, m^2."""
     cross = np.cross(triangles[..., 1, :] - triangles[..., 0, :], triangles[..., 2, :] - triangles[..., 0, :])
-    return 0.5 * np.linalg.norm(cross, axis=-1)
+    return 0.5 * lengths(cross)
 
 
 def triangle_unit_normals(triangles: np.ndarray) -> np.ndarray:
     """Unit normals of (..., 3, 3) triangles (right-handed winding); zero for degenerate ones."""
     normal = np.cross(triangles[..., 1, :] - triangles[..., 0, :], triangles[..., 2, :] - triangles[..., 0, :])
-    return normal / np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-300)
+    return normal / np.maximum(lengths(normal)[..., None], 1e-300)
 
 
 def tangent_frames(normals: np.ndarray) -> np.ndarray:
     """(m, 3, 3) orthonormal frames whose rows are tangent, bitangent and the unit normal."""
     helper = np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
     tangent = np.cross(helper, normals)
-    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    tangent /= lengths(tangent)[:, None]
     return np.stack([tangent, np.cross(normals, tangent), normals], axis=1)
 
 

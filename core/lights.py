@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .formfactor import point_to_polygon, visible_fraction
-from .geometry import tangent_frames
+from .geometry import lengths, tangent_frames
 from .raycast import RayCaster
 from .sampling import concentric_disk, cosine_hemisphere, stratified_square
 from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight
@@ -85,7 +85,7 @@ def _light_frame(light) -> np.ndarray:
 def _point_like(light, caster, points, normals, offset_m, samples_per_edge, seed, lift):
     """Point and spot lights; a radius spreads the shadow-ray targets over a disk facing each receiver."""
     to_light = np.asarray(light.position, dtype=np.float64) - points
-    distance = np.linalg.norm(to_light, axis=1)
+    distance = lengths(to_light)
     direction = to_light / np.maximum(distance, 1e-300)[:, None]
     cosine = np.maximum(np.einsum("mk,mk->m", direction, normals), 0.0)
     squared = distance ** 2 + (light.radius_m ** 2 if light.soft_falloff else 0.0)
@@ -118,7 +118,7 @@ def _sun(light: SunLight, caster, points, normals, offset_m, samples_per_edge, s
     disk = concentric_disk(stratified_square(len(lit), count, seed)) * np.tan(light.angle_rad / 2.0)
     frame = tangent_frames(to_sun[None])[0]
     directions = to_sun + disk @ frame[:2]
-    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+    directions /= lengths(directions)[..., None]
     origins = np.broadcast_to((points[lit] + offset_m * normals[lit])[:, None, :], directions.shape)
     if lift is not None:
         origins = lift[lit].origins(origins, directions)

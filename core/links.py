@@ -37,7 +37,7 @@ import numpy as np
 from .cluster_tree import NODE_SAMPLES, ClusterTree
 from .clusters import SAMPLES, FaceClusters
 from .formfactor import point_to_polygon, triangle_samples, visible_fraction
-from .geometry import tangent_frames, triangle_unit_normals
+from .geometry import lengths, tangent_frames, triangle_unit_normals
 from .progress import BakeCancelled, Progress, never_cancelled, no_progress
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
@@ -152,7 +152,7 @@ def _links_part(sources, caster, points, normals, receiver, node, samples_per_ed
     sight (refinement may still find a visible bright part in them)."""
     factor, unoccluded, partial = link_factors(sources, caster, points[receiver], normals[receiver], node,
                                                samples_per_edge, offset_m)
-    keep = (factor.sum(axis=1) > 0) | ((unoccluded > 0) & (sources.tree.left[node] >= 0))
+    keep = (np.einsum("lc->l", factor) > 0) | ((unoccluded > 0) & (sources.tree.left[node] >= 0))
     return (receiver[keep].astype(np.int32), node[keep].astype(np.int32), factor[keep].astype(np.float32),
             unoccluded[keep].astype(np.float32), _exact(sources, node[keep]), partial[keep])
 
@@ -175,7 +175,7 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
         if cancelled():
             raise BakeCancelled("Bake cancelled while refining links.")
         spread = deviation[pending.node]
-        hidden = np.maximum(pending.unoccluded - pending.factor.sum(axis=1), 0.0)
+        hidden = np.maximum(pending.unoccluded - np.einsum("lc->l", pending.factor), 0.0)
         bound = np.einsum("ls,ls->l", pending.factor, spread) + hidden * spread.max(axis=1)
         bound = np.maximum(bound, pending.partial * pending.unoccluded * radiosity[pending.node])
         refine = (tree.left[pending.node] >= 0) & (bound > tolerance * irradiance[pending.receiver])
@@ -189,7 +189,7 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
                  for start in range(0, len(node), PAIRS_PER_STEP)]
         pending = Links(*(np.concatenate(column) for column in zip(*parts)), links.covered)
     links = Links(*(np.concatenate(column) for column in zip(*[part.columns for part in settled])), links.covered)
-    links = links.subset(links.factor.sum(axis=1) > 0)
+    links = links.subset(np.einsum("lc->l", links.factor) > 0)
     _cap_rows(links)
     return links
 
@@ -213,7 +213,7 @@ def covered_share(caster: RayCaster, points: np.ndarray, normals: np.ndarray, of
 def _cap_rows(links: Links) -> None:
     """Scale down the rows that sum to more than one: no receiver sees more than its hemisphere, and a row over
     one would make light out of nothing."""
-    row = np.bincount(links.receiver, weights=links.factor.sum(axis=1), minlength=len(links.covered))
+    row = np.bincount(links.receiver, weights=np.einsum("lc->l", links.factor), minlength=len(links.covered))
     links.factor *= (1.0 / np.maximum(row, 1.0))[links.receiver, None].astype(np.float32)
 
 
@@ -236,12 +236,12 @@ def accepted_nodes(tree: ClusterTree, points: np.ndarray, normals: np.ndarray, o
         relative = centre - points[receiver]
         normal = normals[receiver]
         # The highest point of the node's box above the receiver's tangent plane.
-        height = np.einsum("mk,mk->m", relative, normal) + (np.abs(normal) * half).sum(axis=1)
+        height = np.einsum("mk,mk->m", relative, normal) + np.einsum("mk,mk->m", np.abs(normal), half)
         leaf = tree.left[node] < 0
         keep = (height > offset_m) & ~(leaf & (tree.element[node] == own_element[receiver]))
         distance2 = np.einsum("mk,mk->m", relative, relative)
         far = (np.einsum("mk,mk->m", half, half) < (opening ** 2) * distance2) & \
-            (tree.class_exposed[node].sum(axis=1) < FORM_FACTOR_LIMIT * np.pi * distance2)
+            (np.einsum("mc->m", tree.class_exposed[node]) < FORM_FACTOR_LIMIT * np.pi * distance2)
         accept = keep & (leaf | far)
         accepted_receivers.append(receiver[accept])
         accepted.append(node[accept])
@@ -317,10 +317,10 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
     target_normal = tree.normal[node[pair], direction].astype(np.float64)
     area = np.broadcast_to((tree.class_exposed[node[pair], direction] / NODE_SAMPLES)[:, None], flat.shape)
     delta = target - points[pair, None, :]
-    distance2 = np.maximum((delta * delta).sum(axis=2), 1e-300)
+    distance2 = np.maximum(np.einsum("mki,mki->mk", delta, delta), 1e-300)
     distance = np.sqrt(distance2)
-    cos_receiver = (delta * normals[pair, None, :]).sum(axis=2) / distance
-    cos_source = -(delta * target_normal).sum(axis=2) / distance
+    cos_receiver = np.einsum("mki,mi->mk", delta, normals[pair]) / distance
+    cos_source = -np.einsum("mki,mki->mk", delta, target_normal) / distance
     facing = np.flatnonzero(((cos_receiver > 0) & (cos_source > 0)).ravel())
     weight = np.zeros(flat.size)
     near = area.ravel()[facing] > NEAR_SHARE * np.pi * distance2.ravel()[facing]
@@ -332,26 +332,25 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
                                 area.ravel()[close])
         receiver = pair[close // flat.shape[1]]
         weight[close] = point_to_polygon(points[receiver], normals[receiver], square)
-    unoccluded = np.bincount(pair, weights=weight.reshape(flat.shape).sum(axis=1), minlength=len(node))
+    pair_weight = weight.reshape(flat.shape) @ np.ones(flat.shape[1])
+    unoccluded = np.bincount(pair, weights=pair_weight, minlength=len(node))
     if len(facing):
         owner = pair[facing // flat.shape[1]]
-        origin = points[owner] + offset_m * normals[owner]
+        origin = (points + offset_m * normals)[owner]
         if lift is not None:
             ray = delta.reshape(-1, 3)[facing]
-            origin = lift[owner].origins(origin[:, None, :], (ray / np.linalg.norm(ray, axis=1,
-                                                                                     keepdims=True))[:, None, :])[:, 0]
-        on_surface = sources.sample_point[sample].reshape(-1, 3)[facing]
-        side_normal = (sources.sample_normal[sample] * (1.0 - 2.0 * (element_side % 2))[..., None]).reshape(-1, 3)
-        end = on_surface + offset_m * side_normal[facing]
+            origin = lift[owner].origins(origin[:, None, :], (ray / lengths(ray)[:, None])[:, None, :])[:, 0]
+        seen_sample = sample.ravel()[facing]
+        lift_m = offset_m * (1.0 - 2.0 * (element_side.ravel()[facing] % 2))  # along the side's outward normal
+        end = sources.sample_point[seen_sample] + lift_m[:, None] * sources.sample_normal[seen_sample]
         ray = end - origin
-        length = np.maximum(np.linalg.norm(ray, axis=1), 1e-300)
+        length = np.maximum(lengths(ray), 1e-300)
         blocked = caster.occluded(origin, ray / length[:, None], length)
         weight[facing[blocked]] = 0.0
-        owner = pair[facing // flat.shape[1]]
+        pair_weight = weight.reshape(flat.shape) @ np.ones(flat.shape[1])
         hidden = np.bincount(owner, weights=blocked, minlength=len(node))
         partial = (hidden > 0) & (hidden < np.bincount(owner, minlength=len(node)))
     else:
         partial = np.zeros(len(node), dtype=bool)
-    factor = np.bincount(pair * 6 + direction, weights=weight.reshape(flat.shape).sum(axis=1),
-                         minlength=6 * len(node)).reshape(-1, 6)
+    factor = np.bincount(pair * 6 + direction, weights=pair_weight, minlength=6 * len(node)).reshape(-1, 6)
     return factor, unoccluded, partial

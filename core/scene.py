@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import triangle_areas, triangle_unit_normals
+from .geometry import lengths, triangle_areas, triangle_unit_normals
 
 RGB = tuple[float, float, float]
 TERMINATOR_GEOMETRY_OFFSET = 0.1  # Blender's default for an object's Shadow Terminator Geometry Offset
@@ -207,7 +207,7 @@ class Scene:
         """(m, 3) unit shading normals at surface points: the corner normals interpolated and normalised, as
         Cycles shades a smooth triangle (and bakes it); the triangle's normal where they cancel out."""
         normal = np.einsum("mc,mck->mk", barycentric, self.corner_normals[scene_triangle])
-        length = np.linalg.norm(normal, axis=1, keepdims=True)
+        length = lengths(normal)[:, None]
         flat = triangle_unit_normals(self.triangles[scene_triangle])
         return np.where(length > 1e-6, normal / np.maximum(length, 1e-300), flat)
 
@@ -242,7 +242,7 @@ def _unit_corner_normals(triangles: np.ndarray, corner_normals) -> np.ndarray:
     if normals.shape != flat.shape:
         raise SceneError(f"corner_normals has shape {normals.shape} for {len(triangles)} triangles.")
     with np.errstate(invalid="ignore", over="ignore"):
-        length = np.linalg.norm(normals, axis=2, keepdims=True)
+        length = lengths(normals)[..., None]
         usable = np.isfinite(length) & (length > 1e-12)
         return np.where(usable, normals / np.where(usable, length, 1.0), flat)
 
