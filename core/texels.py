@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import tangent_frames, triangle_unit_normals
+from .geometry import lengths, tangent_frames, triangle_unit_normals
 from .ragged import concatenated_ranges
 from .raycast import RayCaster
 
@@ -104,9 +104,9 @@ def _nearest_point(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarra
     best = np.zeros_like(bary)
     for i, j in ((0, 1), (1, 2), (2, 0)):  # three edges, vectorised over all points
         start, edge = triangles[:, i], triangles[:, j] - triangles[:, i]
-        length2 = (edge ** 2).sum(axis=1)
-        t = np.clip(((points - start) * edge).sum(axis=1) / np.maximum(length2, 1e-300), 0.0, 1.0)
-        gap = np.linalg.norm(start + t[:, None] * edge - points, axis=1)
+        length2 = np.einsum("mk,mk->m", edge, edge)
+        t = np.clip(np.einsum("mk,mk->m", points - start, edge) / np.maximum(length2, 1e-300), 0.0, 1.0)
+        gap = lengths(start + t[:, None] * edge - points)
         closer = gap < distance
         distance[closer] = gap[closer]
         best[closer] = 0.0
@@ -129,7 +129,7 @@ def inset(points: np.ndarray, centroids: np.ndarray, distance_m: float) -> np.nd
     (a texel centre on the edge where a floor meets a wall) must not start its rays inside the other surface,
     nor sit in the plane of a neighbouring emitter, where the point-to-polygon factor degenerates."""
     towards = centroids - points
-    length = np.linalg.norm(towards, axis=-1, keepdims=True)
+    length = lengths(towards)[..., None]
     return points + towards * np.minimum(distance_m, 0.5 * length) / np.maximum(length, 1e-300)
 
 
@@ -161,19 +161,24 @@ def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, point
 def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,
                            normals: np.ndarray, offset_m: float) -> np.ndarray:
     """(m,) True where a surface point is buried in closed geometry (a floor under a box standing on it, the
-    inside of a closed prop): seen from ``offset_m`` above it, the ray along the normal and the eight rays along
-    the tangent directions all meet a face, and most of them (``INSIDE_BACK_FACES`` of the nine) meet a back face
-    first. An open surface above (a single-sided table top) leaves tangent rays free, so it does not count. (Not
-    every ray need meet a back face: where a box's bottom lies on the floor, a ray meets the two coincident faces
-    at once, and Embree reports either.)"""
-    origins, directions = tangent_rays(points, normals, offset_m)
-    origins = np.concatenate([origins, points + offset_m * normals])
-    directions = np.concatenate([directions, normals])
-    distance, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
-    count = len(points)
-    rays = np.concatenate([np.arange(count * TANGENT_RAYS).reshape(count, TANGENT_RAYS),
-                           count * TANGENT_RAYS + np.arange(count)[:, None]], axis=1)
-    return np.isfinite(distance[rays]).all(axis=1) & (behind[rays].sum(axis=1) >= INSIDE_BACK_FACES)
+    inside of a closed prop or of an open-bottomed box resting on the floor): seen from ``offset_m`` above it,
+    the ray along the normal meets a back face, and the eight rays along the tangent directions all meet a face,
+    most of them (with the normal's, ``INSIDE_BACK_FACES`` of the nine) a back face. An open surface above (a
+    single-sided table top) leaves tangent rays free, and a surface facing a front face (a gallery's ceiling over
+    its floor, between single-sided walls) is not inside, whatever its tangent rays meet. (Not every tangent ray
+    need meet a back face: where a box's bottom lies on the floor, a ray meets the two coincident faces at once,
+    and Embree reports either.) Only points whose normal ray meets a back face cast the tangent rays."""
+    inside = np.zeros(len(points), dtype=bool)
+    _, behind = back_face_hits(caster, scene_triangles_m, points + offset_m * normals, normals)
+    candidates = np.flatnonzero(behind)
+    if len(candidates) == 0:
+        return inside
+    origins, directions = tangent_rays(points[candidates], normals[candidates], offset_m)
+    distance, tangent_behind = back_face_hits(caster, scene_triangles_m, origins, directions)
+    all_hit = np.isfinite(distance).reshape(-1, TANGENT_RAYS).all(axis=1)
+    backs = 1 + tangent_behind.reshape(-1, TANGENT_RAYS).sum(axis=1)
+    inside[candidates] = all_hit & (backs >= INSIDE_BACK_FACES)
+    return inside
 
 
 def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, points: np.ndarray,
@@ -232,8 +237,8 @@ def back_face_hits(caster: RayCaster, scene_triangles_m: np.ndarray, origins: np
     found = hit >= 0
     hit_triangles = scene_triangles_m[np.maximum(hit, 0)]
     hit_points = np.einsum("mc,mck->mk", bary, hit_triangles)
-    distance = np.where(found, np.linalg.norm(hit_points - origins, axis=1), np.inf)
-    facing = (triangle_unit_normals(hit_triangles) * directions).sum(axis=1)
+    distance = np.where(found, lengths(hit_points - origins), np.inf)
+    facing = np.einsum("mk,mk->m", triangle_unit_normals(hit_triangles), directions)
     return distance, found & (facing > 0)
 
 
