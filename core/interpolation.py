@@ -20,14 +20,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import tangent_frames
+from .geometry import lengths, tangent_frames
 from .ragged import concatenated_ranges
 from .raycast import RayCaster
 
 NEIGHBOURS = 8
 LIFT_FRACTION = 0.2
 COS_SHARP, COS_SMOOTH = np.cos(np.radians(70.0)), np.cos(np.radians(30.0))
-PAIRS_PER_STEP = 1 << 20
+PAIRS_PER_STEP = 1 << 21  # candidate (point, receiver) pairs weighed at once
+BLOCK = 1 << 16           # points whose candidates are counted at once
 RIDGE = 0.01  # damps the fitted gradient where the receivers around a point do not span its tangent plane
 _CELL_OFFSETS = np.stack(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1], indexing="ij"), -1).reshape(-1, 3)
 
@@ -52,13 +53,30 @@ class ReceiverField:
         cells = cells + (1 << 20)
         return (cells[..., 0] << 42) | (cells[..., 1] << 21) | cells[..., 2]
 
+    def _cell_ranges(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """(m, 27) first and end positions, in the sorted receivers, of the 27 grid cells around each point."""
+        cells = np.floor(points / self.cell_m).astype(np.int64)
+        keys = self._keys(cells[:, None, :] + _CELL_OFFSETS[None])
+        return (np.searchsorted(self.sorted_keys, keys, side="left"),
+                np.searchsorted(self.sorted_keys, keys, side="right"))
+
+    def _steps(self, points) -> list[slice]:
+        """Consecutive runs of points whose candidate receivers add up to about ``PAIRS_PER_STEP`` (memory
+        stays bounded however densely the receivers crowd the cells)."""
+        counts = np.zeros(len(points), dtype=np.int64)
+        for start in range(0, len(points), BLOCK):
+            low, high = self._cell_ranges(points[start:start + BLOCK])
+            counts[start:start + BLOCK] = (high - low).sum(axis=1)
+        total = np.cumsum(counts)
+        steps = int(total[-1]) // PAIRS_PER_STEP if len(total) else 0
+        cuts = np.searchsorted(total, PAIRS_PER_STEP * np.arange(1, steps + 1))
+        edges = np.unique(np.concatenate([[0], cuts, [len(points)]]))
+        return [slice(start, stop) for start, stop in zip(edges[:-1], edges[1:])]
+
     def _neighbours(self, points, normals, visibility):
         """(row, receiver, weight) of the receivers each point interpolates from (weights not normalised); points
         that see none in reach have no row."""
-        cells = np.floor(points / self.cell_m).astype(np.int64)
-        keys = self._keys(cells[:, None, :] + _CELL_OFFSETS[None])
-        low = np.searchsorted(self.sorted_keys, keys, side="left")
-        high = np.searchsorted(self.sorted_keys, keys, side="right")
+        low, high = self._cell_ranges(points)
         count = (high - low).ravel()
         row = np.repeat(np.repeat(np.arange(len(points)), 27), count)
         receiver = self.sorted_entries[np.repeat(low.ravel(), count) + concatenated_ranges(count)]
@@ -81,7 +99,7 @@ class ReceiverField:
             start = points[row] + lift * normals[row]
             end = self.points[receiver] + lift * self.normals[receiver]
             ray = end - start
-            length = np.linalg.norm(ray, axis=1)
+            length = lengths(ray)
             moving = length > 1e-9
             seen = np.ones(len(row), dtype=bool)
             seen[moving] = ~self.caster.occluded(start[moving], ray[moving] / length[moving, None], length[moving])
@@ -93,13 +111,11 @@ class ReceiverField:
         """(m, c) values (k, c) fitted at surface points; ``fallback`` (m,) the receiver whose value a point takes
         when it sees none in reach."""
         out = values[fallback].astype(np.float64)
-        step = max(1, PAIRS_PER_STEP // (27 * 4))
-        for start in range(0, len(points), step):
-            rows = slice(start, start + step)
+        for rows in self._steps(points):
             row, receiver, weight = self._neighbours(points[rows], normals[rows], visibility)
             if len(row):
                 found = np.unique(row)
-                out[start + found] = self._fit(values, points[rows], normals[rows], row, receiver, weight)[found]
+                out[rows.start + found] = self._fit(values, points[rows], normals[rows], row, receiver, weight)[found]
         return out
 
     def _fit(self, values, points, normals, row, receiver, weight) -> np.ndarray:
