@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -68,6 +69,9 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--png-exposure", type=float, metavar="STOPS",
                         help="also write an 8-bit sRGB PNG of the lightmap x 2^STOPS (low dynamic range)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the stratified samples")
+    parser.add_argument("--max-memory-gb", type=float, default=0.0,
+                        help="most memory the bake may use, GiB: a larger bake gets coarser elements or is refused "
+                             "before the heavy work (default 0: 75%% of this machine's memory)")
     return parser
 
 
@@ -94,6 +98,9 @@ def _bake(args) -> dict:
         value = getattr(args, name)
         if value is not None and value <= 0:
             raise CommandError(EXIT_BAD_ARGUMENT, f"--{name.replace('_', '-')} must be positive, got {value}")
+    if not (math.isfinite(args.max_memory_gb) and args.max_memory_gb >= 0):
+        raise CommandError(EXIT_BAD_ARGUMENT, f"--max-memory-gb must be a positive number (0: the default), "
+                                              f"got {args.max_memory_gb}")
     if not os.path.isfile(args.input):
         raise CommandError(EXIT_INPUT, f"input file not found: {args.input}")
     folder = os.path.abspath(args.lightmap_dir or os.path.dirname(os.path.abspath(args.output)))
@@ -108,7 +115,7 @@ def _bake(args) -> dict:
         raise CommandError(EXIT_INPUT, f"cannot read {args.input}: {str(error).strip().splitlines()[-1]}")
     user = UserSettings(args.quality.upper(), args.element_size, args.patch_size, args.adaptive_passes,
                         args.residual, args.light_samples, args.form_factors, args.seed, args.gather_samples,
-                        args.texels_per_meter or 0.0, args.indirect)
+                        args.texels_per_meter or 0.0, args.indirect, args.max_memory_gb)
     lightmap = LightmapOptions(args.uv_map, args.lightmap_image, args.texels_per_meter, args.resolution,
                                args.padding, args.max_size, half=not args.float, png_exposure=args.png_exposure,
                                existing_uv_map=args.existing_uv_map)

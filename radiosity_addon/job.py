@@ -8,10 +8,13 @@ from __future__ import annotations
 
 import time
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 from ..core import SceneError
+from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory
 from .export import Export, export_scene
 from .lightmaps import LightmapOptions, LightmapPlan, plan_lightmap, write_lightmap
 from .presets import UserSettings, bake_settings, lightmap_settings
@@ -50,6 +53,8 @@ class Job:
     started: float = field(default_factory=time.perf_counter)
     solution: object = None
     lightmaps: list = field(default_factory=list)
+    memory: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
 
 
 def prepare(context, user: UserSettings, outputs: Outputs) -> Job:
@@ -65,10 +70,51 @@ def prepare(context, user: UserSettings, outputs: Outputs) -> Job:
     if outputs.lightmaps:
         job.lightmap_settings, density = lightmap_settings(user, export.scene.size_m)
         job.lightmap_plan = plan_lightmap(context, export, outputs.lightmap, density)
+    _fit_to_memory(job, user.max_memory_gb or default_limit_gb())
     return job
 
 
+def _fit_to_memory(job: Job, limit_gb: float) -> None:
+    """Estimate the bake's memory before the heavy work; coarsen the elements if that makes it fit (with a
+    warning), or refuse the bake (core.memory.MemoryLimitError) if nothing does."""
+    scene, plan = job.export.scene, job.lightmap_plan
+    covered, image = 0, 0
+    if plan is not None:
+        width, height = plan.layout.width, plan.layout.height
+        covered = max((int(uv_area(corner_uv) * width * height) for _, corner_uv in plan.page_triangles), default=0)
+        image = width * height * len(plan.page_triangles)
+    asked = job.settings.element_size_m
+    size, estimate = fit_to_memory(scene.triangles[~scene.casts_only], asked, limit_gb, covered, image)
+    job.memory = {"limit_gb": limit_gb, "estimated_gb": round(estimate.peak_bytes / GIB, 2),
+                  "steps_gb": {name: round(value / GIB, 2) for name, value in estimate.steps.items()}}
+    if size != asked:
+        job.settings = replace(job.settings, element_size_m=size, patch_size_m=max(job.settings.patch_size_m, size),
+                               min_element_size_m=job.settings.min_element_size_m * size / asked)
+        job.warnings.append(f"Elements are {size / asked:.2g} times the quality's size ({size:.3g} m instead of "
+                            f"{asked:.3g} m) so that the bake fits the memory limit of {limit_gb:g} GiB (about "
+                            f"{estimate.peak_bytes / GIB:.1f} GiB now); raise the limit for finer indirect light.")
+
+
+def uv_area(corner_uv: np.ndarray) -> float:
+    """The summed area of (t, 3, 2) UV triangles, in units of the whole UV square."""
+    edges = corner_uv[:, 1:] - corner_uv[:, :1]
+    return float(0.5 * np.abs(edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 0, 1] * edges[:, 1, 0]).sum())
+
+
 def solve(job: Job, progress, cancelled) -> None:
+    """The solve and the lightmap texels; an allocation that fails anyway (the estimate is not a promise) becomes
+    a MemoryLimitError naming the limit to lower."""
+    try:
+        _solve(job, progress, cancelled)
+    except MemoryError:
+        job.solution, job.lightmaps = None, []
+        raise MemoryLimitError(
+            f"The bake ran out of memory (estimated {job.memory.get('estimated_gb', 0):g} GiB, limit "
+            f"{job.memory.get('limit_gb', 0):g} GiB): set a lower memory limit (--max-memory-gb) so that it "
+            "adapts, lower the quality or the lightmap's texel density, or close other programs.") from None
+
+
+def _solve(job: Job, progress, cancelled) -> None:
     from ..core import bake
     from ..core.lightmap import bake_lightmap
     job.solution = bake(job.export.scene, job.settings, progress, cancelled)
@@ -81,7 +127,8 @@ def solve(job: Job, progress, cancelled) -> None:
 
 def apply(job: Job) -> dict:
     """Write the outputs; returns the report (REPORT.json's contract, docs/design in the README)."""
-    objects, warnings, entries = [], list(job.export.warnings) + list(job.solution.warnings), []
+    objects, entries = [], []
+    warnings = list(job.export.warnings) + job.warnings + list(job.solution.warnings)
     if job.lightmap_plan is not None:  # first: its files are what can still fail, before the .blend changes
         entries = write_lightmap(job.lightmap_plan, [page.light for page in job.lightmaps], _metadata(job),
                                  job.outputs.lightmap_folder)
@@ -105,6 +152,7 @@ def apply(job: Job) -> dict:
         "rays": solution.rays_cast,
         "dropped_triangles": job.export.scene.dropped_triangles,
         "settings": job.settings.as_dict(),
+        "memory": job.memory,
         "units": "irradiance / pi (Cycles Diffuse bake, Direct + Indirect, no Color), scene-linear",
         "warnings": warnings,
     }

@@ -22,6 +22,7 @@ class RENDER_PT_radiosity(bpy.types.Panel):
         for name in ("element_size", "patch_size", "adaptive_passes", "residual", "light_samples"):
             column.prop(settings, name)
         layout.prop(settings, "form_factors")
+        layout.prop(settings, "max_memory_gb")
         layout.prop(settings, "target")
         if settings.target != "LIGHTMAP":
             layout.prop(settings, "attribute_name")

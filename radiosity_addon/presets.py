@@ -39,6 +39,7 @@ class UserSettings:
     gather_samples_per_edge: int = 8
     texels_per_metre: float = 0.0
     lightmap_indirect: str = "interpolate"
+    max_memory_gb: float = 0.0  # 0: core.memory.default_limit_gb(), a share of the machine's memory
 
 
 def bake_settings(user: UserSettings, scene_size_m: float):

@@ -39,6 +39,10 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
         ("VERTEX_COLORS", "Vertex Colors", "A colour attribute per mesh corner"),
         ("LIGHTMAP", "Lightmap", "A lightmap texture on a new UV map (sharp shadows at any mesh density)"),
         ("BOTH", "Both", "Vertex colours and a lightmap")])
+    max_memory_gb: FloatProperty(name="Memory Limit (GB)", default=0.0, min=0.0, soft_max=256.0,
+                                 description="The most memory a bake may use, in GiB: a larger bake gets coarser "
+                                             "elements or is refused before the heavy work starts; 0 allows 75% "
+                                             "of this machine's memory")
     texels_per_metre: FloatProperty(name="Texels per Metre", default=0.0, min=0.0, soft_max=1024.0,
                                     description="Lightmap density; 0 follows the quality preset (Medium: 256 "
                                                 "texels across the scene)")
@@ -79,7 +83,8 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
     def user_settings(self) -> UserSettings:
         return UserSettings(self.quality, self.element_size, self.patch_size, self.adaptive_passes, self.residual,
                             self.light_samples, self.form_factors, gather_samples_per_edge=self.gather_samples,
-                            texels_per_metre=self.texels_per_metre, lightmap_indirect=self.lightmap_indirect)
+                            texels_per_metre=self.texels_per_metre, lightmap_indirect=self.lightmap_indirect,
+                            max_memory_gb=self.max_memory_gb)
 
     def outputs(self):
         from .job import Outputs

@@ -1,0 +1,140 @@
+"""How much memory a bake may use, and what it will need, estimated before the heavy work starts.
+
+The limit defaults to ``DEFAULT_SHARE`` of the machine's physical memory (or of the container's limit, when one
+is set, on Linux). ``estimate_bake`` adds up what each step holds at its peak from quantities known before any
+large allocation: the triangles, the pieces they are cut into, the elements the pieces group into (counted the
+way core.clusters groups them, without its visibility test) and the lightmap texels. Its per-item sizes are the
+arrays the steps keep (docs/benchmarks.md shows them against measured peaks). ``fit_to_memory`` coarsens the
+elements until the estimate fits, and refuses the bake in one line when even that does not help.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+
+from .clusters import SMALL_PIECE, normal_bins
+from .geometry import triangle_unit_normals
+from .scene import SceneError
+
+DEFAULT_SHARE = 0.75
+GIB = 2 ** 30
+# Bytes each item costs at a step's peak, from peak resident memory measured on the procedural courtyard at 250k
+# to 1M triangles (docs/benchmarks.md), rounded up.
+FIXED_BYTES = 500 * 2 ** 20     # interpreter, Blender or numpy, Embree
+BYTES_PER_TRIANGLE = 1_500      # the exported scene, the Embree BVH, per-triangle tests
+BYTES_PER_PIECE = 700           # the element mesh's nodes and the clustering's per-piece arrays
+BYTES_PER_SOLVED_SIDE = 2_000   # what the solution keeps per element side (points, light, interpolation)
+LINK_WORKSPACE = 800 * 2 ** 20  # candidate links being weighed at once (a fixed number of pairs per step)
+BYTES_PER_LINKED_SIDE = 10_000  # about 125 links of 38 bytes, twice while they are refined
+BYTES_PER_TEXEL = 3_000         # a page's covered texels while lit: points, footprints, rays, interpolation
+BYTES_PER_IMAGE_TEXEL = 16      # every page's float32 light and masks, kept until written
+COARSENING = 1.25               # each adaptation makes elements this much larger
+MOST_COARSENING = 4.0           # ... up to this factor, else the bake is refused
+
+
+class MemoryLimitError(SceneError):
+    """The bake would need more memory than the limit allows, even with coarser elements."""
+
+
+def physical_memory_bytes() -> int:
+    """The machine's physical memory, or a Linux container's limit when that is lower (0 if unknown)."""
+    total = 0
+    if sys.platform == "win32":
+        class Status(ctypes.Structure):
+            _fields_ = [("length", ctypes.c_ulong), ("load", ctypes.c_ulong), ("total", ctypes.c_ulonglong),
+                        ("available", ctypes.c_ulonglong), ("page_total", ctypes.c_ulonglong),
+                        ("page_available", ctypes.c_ulonglong), ("virtual_total", ctypes.c_ulonglong),
+                        ("virtual_available", ctypes.c_ulonglong), ("extended", ctypes.c_ulonglong)]
+        status = Status(length=ctypes.sizeof(Status))
+        if ctypes.windll.kernel32.GlobalMemoryStatusEx(ctypes.byref(status)):
+            total = int(status.total)
+    elif hasattr(os, "sysconf") and "SC_PHYS_PAGES" in os.sysconf_names:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    for path in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
+        try:
+            with open(path, encoding="ascii") as handle:
+                text = handle.read().strip()
+        except OSError:
+            continue
+        if text.isdigit() and 0 < int(text) < (total or 1 << 62):
+            total = int(text)
+    return total
+
+
+def default_limit_gb() -> float:
+    """``DEFAULT_SHARE`` of the physical memory, in GiB (8 GiB when it cannot be read)."""
+    total = physical_memory_bytes()
+    return round(DEFAULT_SHARE * total / GIB, 1) if total else 8.0
+
+
+@dataclass(frozen=True)
+class MemoryEstimate:
+    """Bytes each step needs at its peak: ``steps`` name -> bytes; the bake needs their largest plus what lives
+    through every step (``persistent``)."""
+
+    steps: dict
+    persistent: int
+
+    @property
+    def peak_bytes(self) -> int:
+        return self.persistent + max(self.steps.values(), default=0)
+
+    def describe(self) -> str:
+        return ", ".join(f"{name} {size / GIB:.1f} GiB" for name, size in self.steps.items())
+
+
+def piece_counts(triangles_m: np.ndarray, element_size_m: float) -> np.ndarray:
+    """(T,) pieces each triangle is cut into at the element size (core.mesh.build_mesh: k x k)."""
+    edges = np.linalg.norm(triangles_m - np.roll(triangles_m, 1, axis=1), axis=2).max(axis=1)
+    return np.maximum(1, np.ceil(edges / element_size_m - 1e-9)).astype(np.int64) ** 2
+
+
+def element_count(triangles_m: np.ndarray, element_size_m: float) -> int:
+    """About how many elements core.clusters makes: pieces long enough stand alone, smaller ones group by grid
+    cell and normal bin (the visibility split, which adds a few percent, is left out)."""
+    pieces = piece_counts(triangles_m, element_size_m)
+    longest = np.linalg.norm(triangles_m - np.roll(triangles_m, 1, axis=1), axis=2).max(axis=1)
+    alone = longest / np.sqrt(pieces) >= SMALL_PIECE * element_size_m
+    small = ~alone
+    centroid = triangles_m[small].mean(axis=1)
+    origin = centroid.min(axis=0) if len(centroid) else np.zeros(3)
+    keys = np.concatenate([np.floor((centroid - origin) / element_size_m).astype(np.int64),
+                           normal_bins(triangle_unit_normals(triangles_m[small]))[:, None]], axis=1)
+    grouped = len(np.unique(keys, axis=0)) if len(keys) else 0
+    return int(pieces[alone].sum()) + grouped
+
+
+def estimate_bake(triangles_m: np.ndarray, element_size_m: float, covered_texels: int = 0,
+                  image_texels: int = 0) -> MemoryEstimate:
+    """What a hierarchical bake of these (T, 3, 3) receiving triangles needs, with lightmap pages lit one at a
+    time (``covered_texels``: the largest page's texels that charts cover) whose images (``image_texels`` in all)
+    are kept until they are written."""
+    pieces = int(piece_counts(triangles_m, element_size_m).sum())
+    sides = 2 * element_count(triangles_m, element_size_m)
+    persistent = (FIXED_BYTES + BYTES_PER_TRIANGLE * len(triangles_m) + BYTES_PER_PIECE * pieces +
+                  BYTES_PER_SOLVED_SIDE * sides + BYTES_PER_IMAGE_TEXEL * image_texels)
+    return MemoryEstimate({"solve": LINK_WORKSPACE + BYTES_PER_LINKED_SIDE * sides,
+                           "lightmap texels": BYTES_PER_TEXEL * covered_texels}, persistent)
+
+
+def fit_to_memory(triangles_m: np.ndarray, element_size_m: float, limit_gb: float, covered_texels: int = 0,
+                  image_texels: int = 0) -> tuple[float, MemoryEstimate]:
+    """The element size (the one asked for, or up to MOST_COARSENING times larger) at which the estimate fits in
+    ``limit_gb``; raises MemoryLimitError naming the figures and the settings to change when none does."""
+    size = element_size_m
+    while True:
+        estimate = estimate_bake(triangles_m, size, covered_texels, image_texels)
+        if estimate.peak_bytes <= limit_gb * GIB:
+            return size, estimate
+        if size * COARSENING > MOST_COARSENING * element_size_m:
+            raise MemoryLimitError(
+                f"The bake needs about {estimate.peak_bytes / GIB:.1f} GiB ({estimate.describe()}, and "
+                f"{estimate.persistent / GIB:.1f} GiB for {len(triangles_m)} triangles) but the memory limit is "
+                f"{limit_gb:g} GiB, even with elements {MOST_COARSENING:g} times larger: raise the memory limit "
+                "(--max-memory-gb), lower the quality or the lightmap's texel density, or set objects to "
+                "'Shadow Only'.")
+        size *= COARSENING

@@ -1,0 +1,48 @@
+"""The memory guard (core.memory): estimates before the heavy work, coarser elements when they help, and a one-line
+refusal when nothing does."""
+import numpy as np
+import pytest
+
+from core.memory import GIB, MemoryLimitError, estimate_bake, fit_to_memory, physical_memory_bytes
+
+
+def subdivided_plane(size_m: float, quads: int) -> np.ndarray:
+    """(2 quads^2, 3, 3) triangles of a size x size plane at z = 0."""
+    ticks = np.linspace(0.0, size_m, quads + 1)
+    x, y = np.meshgrid(ticks[:-1], ticks[:-1], indexing="ij")
+    step = size_m / quads
+    corner = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1)
+    a, b = corner, corner + [step, 0, 0]
+    c, d = corner + [step, step, 0], corner + [0, step, 0]
+    return np.concatenate([np.stack([a, b, c], axis=1), np.stack([a, c, d], axis=1)])
+
+
+PLANE = subdivided_plane(20.0, 320)  # 204,800 triangles
+
+
+def test_a_bake_over_the_limit_is_refused_in_one_line_naming_the_setting():
+    with pytest.raises(MemoryLimitError) as error:
+        fit_to_memory(PLANE, 0.5, limit_gb=0.1)
+    message = str(error.value)
+    assert "\n" not in message and "--max-memory-gb" in message and "0.1 GiB" in message
+
+
+def test_coarser_elements_make_a_bake_fit_when_they_can():
+    asked = 0.05  # 160,000 pieces of 5 cm on 20 m: the per-piece and per-element terms dominate
+    needed = estimate_bake(PLANE, asked).peak_bytes
+    coarse = estimate_bake(PLANE, 2 * asked).peak_bytes
+    assert coarse < needed
+    limit_gb = (coarse + needed) / 2 / GIB
+    size, estimate = fit_to_memory(PLANE, asked, limit_gb)
+    assert asked < size <= 2 * asked and estimate.peak_bytes <= limit_gb * GIB
+    assert fit_to_memory(PLANE, asked, 2 * needed / GIB)[0] == asked  # room enough: nothing changes
+
+
+def test_lightmap_pages_count_towards_the_estimate():
+    without = estimate_bake(PLANE, 0.5)
+    with_pages = estimate_bake(PLANE, 0.5, covered_texels=4096 ** 2, image_texels=3 * 4096 ** 2)
+    assert with_pages.peak_bytes > without.peak_bytes + 3 * 4096 ** 2 * 12  # at least the float32 RGB images
+
+
+def test_the_machine_memory_is_known():
+    assert physical_memory_bytes() > 2 ** 30
