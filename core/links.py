@@ -168,7 +168,20 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
     shadow rays tell its visible share only in steps, the unoccluded factor times the node's mean radiosity
     ``radiosity`` (N,) is its bound. Too large is over ``tolerance`` times the receiver's ``irradiance`` (R,). A
     link to a cluster holding a lamp's panel or a sunlit patch, or half hidden by a block, seen from nearby, thus
-    becomes links to its parts. Links left with no visible factor are dropped, and rows capped again."""
+    becomes links to its parts. Links left with no visible factor are dropped, and rows capped again. Receivers
+    are refined ``RECEIVERS_PER_STEP`` at a time, so the links being split stay few however many levels open."""
+    steps = [_refined(links.subset((links.receiver >= first) & (links.receiver < first + RECEIVERS_PER_STEP)),
+                      sources, caster, points, normals, deviation, radiosity, irradiance, tolerance,
+                      samples_per_edge, offset_m, cancelled)
+             for first in range(0, len(links.covered), RECEIVERS_PER_STEP)]
+    links = Links(*(np.concatenate(column) for column in zip(*[step.columns for step in steps])), links.covered)
+    _cap_rows(links)
+    return links
+
+
+def _refined(links, sources, caster, points, normals, deviation, radiosity, irradiance, tolerance,
+             samples_per_edge, offset_m, cancelled) -> Links:
+    """``refine_links`` for some receivers' links: those left with a visible factor, refined as far as needed."""
     tree = sources.tree
     settled, pending = [], links
     while True:
@@ -179,7 +192,7 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
         bound = np.einsum("ls,ls->l", pending.factor, spread) + hidden * spread.max(axis=1)
         bound = np.maximum(bound, pending.partial * pending.unoccluded * radiosity[pending.node])
         refine = (tree.left[pending.node] >= 0) & (bound > tolerance * irradiance[pending.receiver])
-        settled.append(pending.subset(~refine))
+        settled.append(pending.subset(~refine & (np.einsum("lc->l", pending.factor) > 0)))
         if not refine.any():
             break
         receiver = np.repeat(pending.receiver[refine], 2)
@@ -188,10 +201,7 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
                              node[start:start + PAIRS_PER_STEP], samples_per_edge, offset_m)
                  for start in range(0, len(node), PAIRS_PER_STEP)]
         pending = Links(*(np.concatenate(column) for column in zip(*parts)), links.covered)
-    links = Links(*(np.concatenate(column) for column in zip(*[part.columns for part in settled])), links.covered)
-    links = links.subset(np.einsum("lc->l", links.factor) > 0)
-    _cap_rows(links)
-    return links
+    return Links(*(np.concatenate(column) for column in zip(*[part.columns for part in settled])), links.covered)
 
 
 def covered_share(caster: RayCaster, points: np.ndarray, normals: np.ndarray, offset_m: float,
