@@ -90,20 +90,11 @@ def main() -> None:
     for samples in [int(s) for s in args.samples.split(",")]:
         light, seconds = cycles_lightmap_bake(objects, "Lightmap", size, size, samples, seed=3)
         rows.append((f"Cycles {samples} spp", seconds, relative_rmse(light, reference, mask, variance)))
-    cycles = sorted((error, seconds) for _, seconds, error in rows)
     print(f"{args.scene} lightmap {size} x {size}, {int(mask.sum())} texels compared; reference: 2 x Cycles "
           f"{args.reference} spp ({reference_seconds:.1f} s each), its noise "
           f"{np.sqrt(variance) / reference[mask].mean():.4f} (removed from the errors below)")
-    print(f"{'bake':24s} {'seconds':>8s} {'rel. RMSE':>10s} {'Cycles s at same error':>24s} {'ratio':>7s}")
-    for name, seconds, error in rows:
-        print(f"{name:24s} {seconds:8.2f} {error:10.4f}")
-    for quality, (light, seconds) in ours.items():
-        error = relative_rmse(light, reference, mask, variance)
-        matched, extrapolated = cycles_seconds_at(error, cycles)
-        ratio = f"{matched / seconds:7.2f}" if matched else "    n/a"
-        matched_text = f"{matched:23.2f}{'*' if extrapolated else ' '}" if matched else f"{'(beyond the ladder)':>24s}"
-        print(f"{'radiosity ' + quality.lower():24s} {seconds:8.2f} {error:10.4f} {matched_text} {ratio}")
-    print("* extrapolated below the ladder along its two lowest-error points")
+    print_against_cycles(rows, {quality.lower(): (relative_rmse(light, reference, mask, variance), seconds)
+                                for quality, (light, seconds) in ours.items()})
     print(f"\n{'relative RMSE per object':24s}" + "".join(f"{quality.lower():>10s}" for quality in ours))
     for obj in objects:
         own = uv_coverage([obj], "Lightmap", size, size) & mask
@@ -112,6 +103,21 @@ def main() -> None:
         print(f"{obj.name:24s}" + "".join(f"{error:10.4f}" for error in errors))
     sys.stdout.flush()
     os._exit(0)  # bpy 4.2 crashes at interpreter teardown
+
+
+def print_against_cycles(cycles_rows: list[tuple[str, float, float]], ours: dict[str, tuple[float, float]]) -> None:
+    """The table: Cycles' ladder (name, seconds, error), then each of ours (quality -> (error, seconds)) with the
+    Cycles time at the same error and the ratio of the two times."""
+    cycles = sorted((error, seconds) for _, seconds, error in cycles_rows)
+    print(f"{'bake':24s} {'seconds':>8s} {'rel. RMSE':>10s} {'Cycles s at same error':>24s} {'ratio':>7s}")
+    for name, seconds, error in cycles_rows:
+        print(f"{name:24s} {seconds:8.2f} {error:10.4f}")
+    for quality, (error, seconds) in ours.items():
+        matched, extrapolated = cycles_seconds_at(error, cycles)
+        ratio = f"{matched / seconds:7.2f}" if matched else "    n/a"
+        matched_text = f"{matched:23.2f}{'*' if extrapolated else ' '}" if matched else f"{'(beyond the ladder)':>24s}"
+        print(f"{'radiosity ' + quality:24s} {seconds:8.2f} {error:10.4f} {matched_text} {ratio}")
+    print("* extrapolated below the ladder along its two lowest-error points")
 
 
 def reference_file(name: str, scene, objects, size: int, samples: int) -> str:
