@@ -20,7 +20,6 @@ import hashlib
 import os
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -49,26 +48,21 @@ def main() -> None:
                         help="folder keeping reference bakes between runs ('' to recompute)")
     args = parser.parse_args()
     import bpy
-    from blender_setup import cycles_lightmap_bake, load_extension, make_sample, uv_coverage
+    from blender_setup import cycles_lightmap_bake, lightmap_bake, load_extension, make_sample, uv_coverage
     package = load_extension()
     package.register()
-    job = package.radiosity_addon.job
     from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY, LightmapOptions
-    from radiosity_baker.radiosity_addon.presets import UserSettings
     folder = Path(tempfile.mkdtemp())
     scene_file = make_sample(args.scene, folder)
     options = LightmapOptions(resolution=args.resolution, padding=2)
     ours = {}
     for quality in args.qualities.split(","):
         bpy.ops.wm.open_mainfile(filepath=str(scene_file))
-        started = time.perf_counter()
-        bake = job.prepare(bpy.context, UserSettings(quality), job.Outputs("LIGHTMAP", lightmap=options,
-                                                                          lightmap_folder=str(folder)))
-        job.solve(bake, lambda fraction, message: None, lambda: False)
-        page, = bake.lightmaps  # a fixed resolution is one atlas page
-        ours[quality] = (page.light.astype(np.float64), time.perf_counter() - started)
+        # a fixed resolution is one atlas page; the UV map Cycles bakes on is the same for every preset
+        bake, report, seconds = lightmap_bake(quality, options, folder)
+        page, = bake.lightmaps
+        ours[quality] = (page.light.astype(np.float64), seconds)
         moved = page.moved  # sample points inside closed geometry: Cycles bakes the inside there
-        report = job.apply(bake)  # the UV map Cycles bakes on (identical for every preset: same layout)
     objects = [bpy.data.objects[entry["name"]] for entry in report["objects"] if entry["uv_map"]]
     objects = [o for o in objects if o.name not in LEFT_OUT[args.scene] and OFFSET_PROPERTY not in o]
     size = args.resolution

@@ -82,28 +82,22 @@ def scaling_table(counts: list[int], qualities: list[str], targets: list[str], f
 def error_table(count: int, qualities: list[str], density: float, samples: list[int], reference_samples: int,
                 folder: Path) -> None:
     import bpy
-    from blender_setup import cycles_lightmap_bake, load_extension, uv_coverage
+    from blender_setup import cycles_lightmap_bake, lightmap_bake, load_extension, uv_coverage
     from lightmap_vs_cycles import print_against_cycles, relative_rmse
     package = load_extension()
     package.register()
-    job = package.radiosity_addon.job
     from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY, LightmapOptions
-    from radiosity_baker.radiosity_addon.presets import UserSettings
     scene_file = courtyard_file(count, folder)
     ours = {}
     for quality in qualities:
         bpy.ops.wm.open_mainfile(filepath=str(scene_file))
         (folder / "compare").mkdir(exist_ok=True)
-        started = time.perf_counter()
-        outputs = job.Outputs("LIGHTMAP", lightmap=LightmapOptions(texels_per_metre=density, padding=2),
-                              lightmap_folder=str(folder / "compare"))
-        bake = job.prepare(bpy.context, UserSettings(quality.upper()), outputs)
-        job.solve(bake, lambda fraction, message: None, lambda: False)
+        bake, report, seconds = lightmap_bake(quality, LightmapOptions(texels_per_metre=density, padding=2),
+                                              folder / "compare")
         page, = bake.lightmaps  # one page at this density
-        ours[quality] = (page.light.astype(np.float64), time.perf_counter() - started)
+        ours[quality] = (page.light.astype(np.float64), seconds)
         height, width = page.light.shape[:2]
         moved = page.moved
-        report = job.apply(bake)
     objects = [bpy.data.objects[entry["name"]] for entry in report["objects"] if entry["uv_map"]]
     objects = [obj for obj in objects if OFFSET_PROPERTY not in obj]
     mask = uv_coverage(objects, "Lightmap", width, height) & ~moved

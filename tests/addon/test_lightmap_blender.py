@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from blender_setup import (add_light, corner_colors, cycles_lightmap_bake, cycles_vertex_bake, grid_plane,
-                           make_cornell_box, triangle_uvs, uv_coverage)
+                           lightmap_bake, make_cornell_box, triangle_uvs, uv_coverage)
 SIZE = 128
 MEASURED_DRAFT_ERROR = 0.043  # relative RMSE of the Draft lightmap against converged Cycles (docs/benchmarks.md)
 
@@ -81,13 +81,8 @@ def test_cornell_lightmap_matches_cycles(tmp_path, extension):
     floor beside it). MEASURED_DRAFT_ERROR is what this measured; the bound leaves room for Cycles' noise.
     """
     bpy.ops.wm.open_mainfile(filepath=str(make_cornell_box(tmp_path)))
-    job = extension.radiosity_addon.job
     from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
-    from radiosity_baker.radiosity_addon.presets import UserSettings
-    bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs(
-        "LIGHTMAP", lightmap=LightmapOptions(resolution=SIZE, padding=2), lightmap_folder=str(tmp_path)))
-    job.solve(bake, lambda fraction, message: None, lambda: False)
-    job.apply(bake)
+    bake, _, _ = lightmap_bake("DRAFT", LightmapOptions(resolution=SIZE, padding=2), tmp_path)
     page, = bake.lightmaps
     ours = page.light.astype(np.float64)
     names = ["floor", "back wall", "left wall", "right wall", "short block", "tall block"]

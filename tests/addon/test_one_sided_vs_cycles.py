@@ -5,7 +5,7 @@ import bpy
 import numpy as np
 import pytest
 
-from blender_setup import add_light, cycles_lightmap_bake, grid_plane, uv_coverage
+from blender_setup import add_light, cycles_lightmap_bake, grid_plane, lightmap_bake, uv_coverage
 
 SIZE = 256
 SAMPLES = 512
@@ -46,13 +46,8 @@ def test_a_column_lit_off_the_back_of_a_single_sided_floor_matches_cycles(empty_
     floor sent nothing and the column came out black. Measured: +8.1% with the floor facing up, +9.0% turned
     over (Medium; the two orientations within 1% of each other)."""
     column = column_under_a_canopy(floor_faces_up)
-    job = extension.radiosity_addon.job
     from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
-    from radiosity_baker.radiosity_addon.presets import UserSettings
-    bake = job.prepare(bpy.context, UserSettings("MEDIUM"), job.Outputs(
-        "LIGHTMAP", lightmap=LightmapOptions(resolution=SIZE, padding=2), lightmap_folder=str(tmp_path)))
-    job.solve(bake, lambda fraction, message: None, lambda: False)
-    job.apply(bake)
+    bake, _, _ = lightmap_bake("MEDIUM", LightmapOptions(resolution=SIZE, padding=2), tmp_path)
     page, = bake.lightmaps
     first, _ = cycles_lightmap_bake([column], "Lightmap", SIZE, SIZE, samples=SAMPLES, seed=1)
     second, _ = cycles_lightmap_bake([column], "Lightmap", SIZE, SIZE, samples=SAMPLES, seed=2)
