@@ -24,6 +24,7 @@ CANDIDATES_PER_CHUNK = 4_000_000
 TANGENT_RAYS = 8
 INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
+CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
 
 
 @dataclass
@@ -187,7 +188,9 @@ def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarr
     (the bottom of a box standing on a floor). No light reaches it, and Cycles bakes it black; but a sample point
     lifted off the surface passes through the other face, and one Embree ray cannot tell two coplanar faces
     apart. Planes are matched by quantised normal and offset (``tolerance_m``), one step per plane, not per
-    texel; each point is then tested against the triangles of the opposite plane."""
+    texel; each point is then tested against the triangles of the opposite plane that are not behind it by more
+    than CONTACT_BEHIND of the tolerance: two sheets back to back (a decal 3 mm behind a single-sided wall) face
+    open space on both sides and stay lit."""
     normals = triangle_unit_normals(scene_triangles_m)
     offsets = np.einsum("tk,tk->t", normals, scene_triangles_m[:, 0])
     keys = np.concatenate([np.round(normals * PLANE_NORMAL_STEPS), np.round(offsets / tolerance_m)[:, None]],
@@ -201,12 +204,14 @@ def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarr
         opposite = number.get(tuple((-planes[plane]).tolist()))
         if opposite is not None:
             here = np.flatnonzero(point_plane == plane)
-            contact[here] = _inside_any(points[here], scene_triangles_m[plane_of == opposite])
+            contact[here] = _inside_any(points[here], normals[point_triangle[here]],
+                                        scene_triangles_m[plane_of == opposite], CONTACT_BEHIND * tolerance_m)
     return contact
 
 
-def _inside_any(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(p,) whether each point (on the triangles' plane) lies inside any of the (q, 3, 3) triangles."""
+def _inside_any(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
+    """(p,) whether each point (near the triangles' plane) lies inside any of the (q, 3, 3) triangles whose plane
+    is at most ``behind_m`` behind it along its unit normal."""
     inside = np.zeros(len(points), dtype=bool)
     step = max(1, CANDIDATES_PER_CHUNK // max(1, len(triangles)))
     e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
@@ -216,7 +221,9 @@ def _inside_any(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         rel = points[start:start + step, None, :] - triangles[None, :, 0]
         r1, r2 = (rel * e1).sum(-1), (rel * e2).sum(-1)
         u, v = (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
-        inside[start:start + step] = ((u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9)).any(axis=1)
+        height = np.einsum("pqk,pk->pq", rel, normals[start:start + step])  # > 0: the triangle is behind
+        inside[start:start + step] = ((u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) &
+                                      (height <= behind_m)).any(axis=1)
     return inside
 
 

@@ -166,6 +166,21 @@ def test_the_bottom_of_a_box_resting_on_a_floor_bakes_black():
     assert pushed.any() and result.light.reshape(-1, 3)[floor_texels.pixel[pushed], 0].min() > 0.1
 
 
+def test_sheets_back_to_back_stay_lit():
+    """A single-sided sheet facing up and a decal 0.2 mm behind it facing down (as a decal a few millimetres
+    behind a single-sided wall in a large level): their planes coincide within the contact tolerance, but each
+    faces open sky, so each bakes the sky's radiance (0.4, no surface in view), not the black of a contact."""
+    sheet = quad((-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0))
+    decal = quad((-0.5, -0.5, -2e-4), (-0.5, 0.5, -2e-4), (0.5, 0.5, -2e-4), (0.5, -0.5, -2e-4))
+    triangles = np.concatenate([sheet, decal])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  world=World((0.4, 0.4, 0.4)))
+    result, layout, corner_uv = lightmap_of(scene, [sheet, decal], LightmapSettings(indirect="interpolate"))
+    texels = rasterize(corner_uv, layout.width, layout.height)
+    light = result.light.reshape(-1, 3)[texels.pixel, 0]
+    assert np.abs(light - 0.4).max() < 0.02 * 0.4
+
+
 def test_same_seed_same_lightmap():
     floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
     block = np.concatenate(box_faces((-0.3, -0.3, 0), (0.3, 0.3, 0.6), inward=False))
