@@ -113,7 +113,7 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
                             settings.seed)
     counts["emitters"] = direct.emitter_count
     return Solution(scene, mesh, elements, direct, caster, offset, ambient, state.history, timer.laps,
-                    caster.rays_cast, state, reflectance_warnings(scene), counts)
+                    caster.rays_cast, state, reflectance_warnings(scene), counts, settings.element_size_m)
 
 
 def reflectance_warnings(scene: Scene) -> list[str]:

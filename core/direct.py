@@ -49,14 +49,14 @@ class DirectLighting:
         return len(self.exitance)
 
     def irradiance(self, points: np.ndarray, normals: np.ndarray, samples_per_edge: int | None = None,
-                   seed_offset: int = 0, lift=None) -> np.ndarray:
+                   seed_offset: int = 0, lift=None, world: bool = True) -> np.ndarray:
         """(m, 3) direct irradiance at points with unit normals; ``samples_per_edge`` overrides the shadow-ray
         count (s^2 per light and emitter); ``seed_offset`` is added to the bake's seed; ``lift``
         (core.terminator.ShadowLift) starts the shadow rays towards lamps and emissive surfaces from smooth-shaded
-        points on their smooth surface (core.terminator)."""
+        points on their smooth surface (core.terminator); ``world`` False leaves the world out."""
         samples = samples_per_edge or self.samples_per_edge
         total = direct_irradiance(self.scene, self.caster, points, normals, self.offset_m, samples,
-                                  self.seed + seed_offset, lift)
+                                  self.seed + seed_offset, lift, world)
         if self.sources is None:
             return total
         count = self.emitter_count

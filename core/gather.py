@@ -6,8 +6,10 @@ With cosine-weighted directions (pdf cos(theta) / pi) the indirect irradiance is
 
     E(x) = integral of L(hit) cos(theta) dw  ~  (pi / N) sum L(hit)  =  (1 / N) sum B_r(hit),
 
-where B_r = rho H is the reflected radiosity at the hit (a diffuse surface's radiance is B / pi). Emission and
-the world are left out: core.direct adds them exactly, with shadow rays. A ray that lands on the back of a face
+where B_r = rho H is the reflected radiosity at the hit (a diffuse surface's radiance is B / pi), and a ray that
+escapes brings the world's radiance (pi L_world in place of B_r: the sky by the gather's many cosine-weighted rays
+rather than the direct light's few, as Cycles traces it by BSDF samples). Emission is left out: core.direct adds
+it exactly, with shadow rays. A ray that lands on the back of a face
 sees the back side's radiosity (surfaces reflect from both sides, as in Cycles); unsolved ("shadow only")
 surfaces return nothing, and so do directions below the face's own plane when the cosine lobe is turned by a
 shading normal (Cycles' diffuse BSDF gives them no weight). Directions are stratified (s x s jittered cells,
@@ -17,16 +19,53 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import tangent_frames, triangle_unit_normals
+from .geometry import lengths, tangent_frames, triangle_areas, triangle_unit_normals
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
 RAYS_PER_CHUNK = 1 << 20
+FREE_PATH_RAYS = 1 << 14
+# A final gather pays where the surfaces a point sees lie closer than this many elements (on the mean): there,
+# irradiance interpolated between elements blurs what the elements are too coarse to resolve (an arcade's ceiling
+# 3 m above a floor, with 2.5 m elements). The sample rooms' mean free path is 4 (Draft) to 12 (High) elements,
+# where interpolation measured closer to Cycles; the 250k courtyard's is 1.2 (Draft) and 2.4 (Medium), where the
+# gather did (docs/benchmarks.md).
+GATHER_BELOW_ELEMENTS = 3.0
+
+
+def mean_free_path_m(scene, caster: RayCaster, offset_m: float, seed: int) -> float:
+    """Mean distance from a surface point to the surface it sees along a cosine-weighted direction, over
+    FREE_PATH_RAYS points spread by area over the solved triangles (either side of each), counting the rays that
+    land. Inside a closed convex room it is the mean chord length 4 V / S (Cauchy's formula)."""
+    triangles = scene.triangles[~scene.casts_only]
+    rng = np.random.default_rng(seed)
+    area = triangle_areas(triangles)
+    picked = triangles[rng.choice(len(triangles), FREE_PATH_RAYS, p=area / area.sum())]
+    u, v = rng.random((2, FREE_PATH_RAYS, 1))
+    fold = u + v > 1
+    u, v = np.where(fold, 1 - u, u), np.where(fold, 1 - v, v)
+    points = picked[:, 0] + u * (picked[:, 1] - picked[:, 0]) + v * (picked[:, 2] - picked[:, 0])
+    normals = triangle_unit_normals(picked) * rng.choice([-1.0, 1.0], (FREE_PATH_RAYS, 1))
+    local = cosine_hemisphere(stratified_square(FREE_PATH_RAYS, 1, seed))
+    directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals))[:, 0]
+    hit, bary = caster.first_hit(points + offset_m * normals, directions)
+    landed = hit >= 0
+    if not landed.any():
+        return float("inf")
+    ends = np.einsum("mc,mck->mk", bary[landed], scene.triangles[hit[landed]])
+    return float(lengths(ends - points[landed]).mean())
+
+
+def gather_pays(solution) -> bool:
+    """Whether a final gather resolves the indirect light better than interpolation between the solution's
+    elements: where the mean free path is under GATHER_BELOW_ELEMENTS elements."""
+    free_path = mean_free_path_m(solution.scene, solution.caster, solution.offset_m, 0)
+    return free_path < GATHER_BELOW_ELEMENTS * solution.element_size_m
 
 
 def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.ndarray, samples_per_edge: int,
                  offset_m: float, seed: int, face_normals: np.ndarray | None = None) -> np.ndarray:
-    """(m, 3) indirect light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by its
+    """(m, 3) indirect light and world light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by its
     rays) with (m, 3) unit (shading) normals, from s^2 gather rays each; ``face_normals`` (m, 3), where they
     differ from the shading normals, cut off the directions below the face."""
     rays = samples_per_edge ** 2
@@ -52,5 +91,6 @@ def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_e
     landed = np.flatnonzero((hit >= 0) & above)
     side = (np.einsum("mk,mk->m", triangle_unit_normals(triangles[hit[landed]]), directions[landed]) > 0).astype(np.int64)
     radiosity = np.zeros((len(hit), 3))
-    radiosity[landed] = solution.reflected_radiosity(hit[landed], bary[landed], side)
+    radiosity[landed] = solution.reflected_radiosity(hit[landed], bary[landed], side, seed)
+    radiosity[(hit < 0) & above] = np.pi * np.asarray(solution.scene.world.radiance, dtype=np.float64)
     return radiosity.reshape(count, rays, 3).mean(axis=1) / np.pi

@@ -7,18 +7,18 @@ Blender stores pixels.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .gather import final_gather
+from .gather import final_gather, gather_pays
 from .progress import BakeCancelled, Progress, Timer, never_cancelled, no_progress
 from .geometry import triangle_areas
 from .scene import SceneError
 from .texels import (Texels, face_to_face_contact, inset, inside_closed_geometry, push_out_of_geometry, rasterize,
                      sample_points, subtexel_barycentrics)
 
-INDIRECT_METHODS = ("gather", "interpolate")
+INDIRECT_METHODS = ("auto", "gather", "interpolate")
 # Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
 # texel at High), and lets progress and Esc through between steps.
 TEXELS_PER_CHUNK = 8192
@@ -26,8 +26,9 @@ TEXELS_PER_CHUNK = 8192
 
 @dataclass(frozen=True)
 class LightmapSettings:
-    """indirect: "gather" (rays from each texel look up the solution) or "interpolate" (element corners: fast,
-    softer). gather_samples_per_edge: s, so s^2 gather rays per texel. subtexel_samples_per_edge: k, so direct light
+    """indirect: "gather" (rays from each texel look up the solution), "interpolate" (element corners: fast,
+    softer) or "auto" (the gather where the elements are coarse next to the distances between surfaces,
+    core.gather.gather_pays). gather_samples_per_edge: s, so s^2 gather rays per texel. subtexel_samples_per_edge: k, so direct light
     is averaged over k x k points of each texel's footprint, each with the bake's light samples per edge divided by
     k (rounded up): about the bake's shadow rays per texel, spread over its footprint, which on the sample scenes
     measured closer to Cycles than as many rays from the texel centre (docs/benchmarks.md). dilation_texels: how far
@@ -51,12 +52,13 @@ class LightmapSettings:
 class Lightmap:
     """light: (height, width, 3) float32; covered: (height, width) texels a triangle covers (before dilation);
     moved: (height, width) texels whose sample point was inside closed geometry and was pushed out of it;
-    seconds: time per phase."""
+    indirect: the method that lit them ("gather" or "interpolate"); seconds: time per phase."""
 
     light: np.ndarray
     covered: np.ndarray
     moved: np.ndarray
     texel_count: int
+    indirect: str
     seconds: dict[str, float] = field(default_factory=dict)
 
 
@@ -75,6 +77,8 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     points, moved = push_out_of_geometry(solution.caster, scene.triangles, points, normals, reach, offset)
     sub_points, sub_bary = _subtexel_points(scene.triangles[tri], texels, corner_uv,
                                             settings.subtexel_samples_per_edge, points, moved, 4 * offset)
+    if settings.indirect == "auto":
+        settings = replace(settings, indirect="gather" if gather_pays(solution) else "interpolate")
     timer.lap("texels")
     light = np.zeros((len(points), 3))
     for start in range(0, len(points), TEXELS_PER_CHUNK):
@@ -96,7 +100,7 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     moved_texels = np.zeros(height * width, dtype=bool)
     moved_texels[texels.pixel[moved]] = True
     return Lightmap(image.astype(np.float32), covered.reshape(height, width), moved_texels.reshape(height, width),
-                    len(texels.pixel), timer.laps)
+                    len(texels.pixel), settings.indirect, timer.laps)
 
 
 def _light_chunk(solution, settings, points, sub_points, sub_bary, normals, tri, barycentric, first_texel, timer):
@@ -107,10 +111,11 @@ def _light_chunk(solution, settings, points, sub_points, sub_bary, normals, tri,
     scene = solution.scene
     c, q = sub_points.shape[:2]
     shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
+    gather = settings.indirect == "gather"  # its rays bring the world's light
     direct = _direct_light(solution, sub_points, shading, tri, barycentric, settings.subtexel_samples_per_edge,
-                           first_texel)
+                           first_texel, world=not gather)
     timer.lap("direct")
-    if settings.indirect == "gather":
+    if gather:
         light = _footprint_mean(scene, direct, tri, sub_bary) + final_gather(
             solution, solution.caster, sub_points, scene.shading_normals(tri, barycentric),
             settings.gather_samples_per_edge, solution.offset_m, settings.seed + first_texel,
@@ -156,13 +161,15 @@ def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, p
     return sub_points, bary
 
 
-def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge, first_texel) -> np.ndarray:
+def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge, first_texel,
+                  world: bool) -> np.ndarray:
     """(m, q, 3) direct light at the (m, q, 3) sub-texel points with their unit normals, with 1/k the shadow rays
-    per edge at each (rounded up)."""
+    per edge at each (rounded up); the world's only if ``world``."""
     q = sub_points.shape[1]
     light_samples = -(-solution.direct.samples_per_edge // samples_per_edge)
     light = solution.direct_light(sub_points.reshape(-1, 3), normals.reshape(-1, 3), np.repeat(tri, q),
-                                  np.repeat(barycentric, q, axis=0), light_samples, seed_offset=q * first_texel)
+                                  np.repeat(barycentric, q, axis=0), light_samples, seed_offset=q * first_texel,
+                                  world=world)
     return light.reshape(-1, q, 3)
 
 

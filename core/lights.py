@@ -21,8 +21,9 @@ DISK_POLYGON_SIDES = 64
 
 
 def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
-                      offset_m: float, samples_per_edge: int, seed: int, lift=None) -> np.ndarray:
-    """(m, 3) irradiance at points with unit normals from every light of the scene and its world. ``lift``
+                      offset_m: float, samples_per_edge: int, seed: int, lift=None, world: bool = True) -> np.ndarray:
+    """(m, 3) irradiance at points with unit normals from every light of the scene and (unless ``world`` is
+    False, for points whose final gather sees the world) its world. ``lift``
     (core.terminator.ShadowLift, optional) starts the lights' grazing shadow rays from smooth-shaded points on
     their smooth surface, as Cycles does; the world's rays, which Cycles mostly traces as BSDF samples, start from
     the points."""
@@ -31,11 +32,11 @@ def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, norma
         sampler = _SAMPLERS[type(light)]
         scalar = sampler(light, caster, points, normals, offset_m, samples_per_edge, seed + 7919 * index, lift)
         irradiance += scalar[:, None] * np.asarray(light.color, dtype=np.float64)
-    world = np.asarray(scene.world.radiance, dtype=np.float64)
-    if world.max() > 0:
+    radiance = np.asarray(scene.world.radiance, dtype=np.float64)
+    if world and radiance.max() > 0:
         escaped = _world_escape_share(caster, points, normals, offset_m, samples_per_edge,
                                        seed + 7919 * len(scene.lights))
-        irradiance += np.pi * escaped[:, None] * world
+        irradiance += np.pi * escaped[:, None] * radiance
     return irradiance
 
 

@@ -76,6 +76,7 @@ class Solution:
     state: object = None
     warnings: list[str] = field(default_factory=list)
     counts: dict = field(default_factory=dict)
+    element_size_m: float = 0.0  # the settings' target element edge length
     _field: ReceiverField | None = field(default=None, init=False, repr=False)
     _indirect: np.ndarray | None = field(default=None, init=False, repr=False)
     _to_mesh: np.ndarray | None = field(default=None, init=False, repr=False)
@@ -152,17 +153,18 @@ class Solution:
 
     def direct_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
                      barycentric: np.ndarray, samples_per_edge: int | None = None,
-                     seed_offset: int = 0) -> np.ndarray:
+                     seed_offset: int = 0, world: bool = True) -> np.ndarray:
         """(m, 3) direct light (irradiance / pi) at points by shadow rays; NaN on triangles that were not solved.
         ``seed_offset`` shifts the shadow rays' seed, for points lit in several calls. Shadow rays from
-        smooth-shaded triangles start on their smooth surface (core.terminator)."""
+        smooth-shaded triangles start on their smooth surface (core.terminator). ``world`` False leaves the world
+        out (a final gather's rays that escape bring it)."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         solved = self._scene_to_mesh()[scene_triangle] >= 0
         lift = ShadowLift.at(self.scene, scene_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved],
                              normals[solved])
         out = np.full((len(points), 3), np.nan)
         out[solved] = self.direct.irradiance(points[solved], normals[solved], samples_per_edge, seed_offset,
-                                             lift) / np.pi
+                                             lift, world) / np.pi
         return out
 
     def indirect_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
@@ -171,18 +173,28 @@ class Solution:
         interpolated at surface points with unit (face) normals; NaN on triangles that were not solved."""
         return self._interpolate(self._indirect_light(), points, normals, scene_triangle, barycentric)
 
-    def reflected_radiosity(self, scene_triangle: np.ndarray, barycentric: np.ndarray,
-                            side: np.ndarray) -> np.ndarray:
-        """(m, 3) reflected radiosity rho H (W m^-2, emission excluded) of the element side (0 front, 1 back) under
-        each surface point: what a final-gather ray sees where it lands (0 on dead sides and unsolved
-        triangles)."""
+    def reflected_radiosity(self, scene_triangle: np.ndarray, barycentric: np.ndarray, side: np.ndarray,
+                            seed_offset: int = 0) -> np.ndarray:
+        """(m, 3) reflected radiosity rho H (W m^-2, emission excluded) on the given side (0 front, 1 back) of
+        surface points: what a final-gather ray sees where it lands. The first bounce is exact at the point: the
+        reflectance there (texture included) x (direct irradiance by one shadow ray per light, ``seed_offset``
+        shifting their seed, + the indirect irradiance of the element side under it). So a sunlit patch and the
+        shade beside it on one coarse element reflect what each receives (two-pass methods, radiosity paper
+        section 10). 0 on dead sides and unsolved triangles."""
+        scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
+        barycentric = np.asarray(barycentric, dtype=np.float64)
         solved, node = self.pieces(scene_triangle, barycentric)
         out = np.zeros((len(solved), 3))
         element = self.elements.node_element[node]
         face = np.asarray(side, dtype=np.int64)[solved]
         alive = self.elements.alive[element, face]
-        irradiance = self._irradiance()[element, face]
-        out[solved] = np.where(alive[:, None], self.elements.reflectance[element] * irradiance, 0.0)
+        lit = np.flatnonzero(solved)[alive]
+        triangles = self.scene.triangles[scene_triangle[lit]]
+        points = np.einsum("mc,mck->mk", barycentric[lit], triangles)
+        normals = triangle_unit_normals(triangles) * np.where(face[alive] == FRONT, 1.0, -1.0)[:, None]
+        irradiance = self.direct.irradiance(points, normals, 1, seed_offset) + \
+            np.pi * self._indirect_light()[element[alive], face[alive]]
+        out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * irradiance
         return out
 
     def pieces(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -54,9 +54,10 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--max-size", type=int, default=4096,
                         help="texels a side of a lightmap image; more images when the density needs them "
                              "(default: 4096)")
-    parser.add_argument("--indirect", choices=["interpolate", "gather"], default="interpolate",
-                        help="lightmap indirect light: interpolated from the elements, or a final gather per texel "
-                             "(custom quality; the presets interpolate)")
+    parser.add_argument("--indirect", choices=["auto", "interpolate", "gather"], default="auto",
+                        help="lightmap indirect light: interpolated from the elements, a final gather per texel, or "
+                             "auto: the gather where the elements are coarse next to the distances between surfaces "
+                             "(custom quality; the presets use auto)")
     parser.add_argument("--gather-samples", type=int, default=8,
                         help="final-gather rays per texel: this squared (custom quality with --indirect gather)")
     parser.add_argument("--uv-map", default="Lightmap", help="name of the lightmap UV map to make")

@@ -164,6 +164,7 @@ def apply(job: Job) -> dict:
         report["lightmap"] = {"pages": len(job.lightmaps), "texels": sum(page.texel_count for page in job.lightmaps),
                               "moved_texels": sum(int(page.moved.sum()) for page in job.lightmaps),
                               "texels_per_metre": job.lightmap_plan.layout.texels_per_metre,
+                              "indirect": job.lightmaps[0].indirect,
                               "timings": timings, "settings": vars(job.lightmap_settings).copy()}
     return report
 

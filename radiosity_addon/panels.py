@@ -39,7 +39,7 @@ class RENDER_PT_radiosity(bpy.types.Panel):
             indirect.enabled = settings.quality == "CUSTOM"
             indirect.prop(settings, "lightmap_indirect")
             gather = indirect.column()
-            gather.enabled = settings.lightmap_indirect == "gather"
+            gather.enabled = settings.lightmap_indirect != "interpolate"
             gather.prop(settings, "gather_samples")
         layout.prop(settings, "create_radiosity_mesh")
         if STATUS["running"]:

@@ -38,7 +38,7 @@ class UserSettings:
     seed: int = 0
     gather_samples_per_edge: int = 8
     texels_per_metre: float = 0.0
-    lightmap_indirect: str = "interpolate"
+    lightmap_indirect: str = "auto"
     max_memory_gb: float = 0.0  # 0: core.memory.default_limit_gb(), a share of the machine's memory
 
 
@@ -63,6 +63,6 @@ def lightmap_settings(user: UserSettings, scene_size_m: float):
     from ..core.lightmap import LightmapSettings
     density = LIGHTMAP_TEXELS_ACROSS.get(user.quality, LIGHTMAP_TEXELS_ACROSS["MEDIUM"]) / scene_size_m
     if user.quality in LIGHTMAP_TEXELS_ACROSS:
-        return LightmapSettings(indirect="interpolate", seed=user.seed), density
+        return LightmapSettings(indirect="auto", seed=user.seed), density
     return LightmapSettings(indirect=user.lightmap_indirect, gather_samples_per_edge=user.gather_samples_per_edge,
                             seed=user.seed), user.texels_per_metre or density

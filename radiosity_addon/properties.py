@@ -54,8 +54,10 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
     lightmap_padding: IntProperty(name="Padding", default=4, min=1, max=32,
                                   description="Texels between charts, filled by dilation so filtering and "
                                               "mipmaps do not bleed")
-    lightmap_indirect: EnumProperty(name="Indirect Light", default="interpolate", items=[
-        ("interpolate", "Interpolate", "From the radiosity elements' corners: smooth, fast (what the presets use)"),
+    lightmap_indirect: EnumProperty(name="Indirect Light", default="auto", items=[
+        ("auto", "Automatic", "Final gather where the elements are coarse next to the distances between surfaces, "
+                              "else interpolation (what the presets use)"),
+        ("interpolate", "Interpolate", "From the radiosity elements' corners: smooth, fast"),
         ("gather", "Final Gather", "Rays from each texel look up the radiosity solution: finer indirect detail, "
                                    "some noise")],
                                     description="How lightmap texels get indirect light (Custom quality)")
