@@ -33,7 +33,8 @@ def test_cli_lightmap_outputs_and_determinism(scene_file, tmp_path):
         assert entry["uv_map"] == "Lightmap" and entry["resolution"] == [64, 64]
         assert entry["image"] == str(files[0]) and entry["color_attribute"] == "Radiosity"
     assert filecmp.cmp(files[0], files[1], shallow=False)
-    assert report["lightmap"]["settings"]["indirect"] == "interpolate"  # every preset interpolates
+    assert report["lightmap"]["settings"]["indirect"] == "auto"  # the presets choose per scene, and say what
+    assert report["lightmap"]["indirect"] in ("gather", "interpolate")
     from radiosity_baker.core.image_file import read_image, srgb_encode
     exr, png = read_image(str(files[0]))[..., :3], read_image(report["objects"][0]["png"])[..., :3]
     assert png == pytest.approx(srgb_encode(np.clip(exr, 0.0, 1.0)), abs=1 / 255 + 2e-3)  # 8 bits, half floats
