@@ -65,8 +65,8 @@ def gather_pays(solution) -> bool:
 
 def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.ndarray, samples_per_edge: int,
                  offset_m: float, seed: int, face_normals: np.ndarray | None = None) -> np.ndarray:
-    """(m, 3) indirect light and world light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by its
-    rays) with (m, 3) unit (shading) normals, from s^2 gather rays each; ``face_normals`` (m, 3), where they
+    """(m, 3) indirect and world light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by
+    its rays) with (m, 3) unit (shading) normals, from s^2 gather rays each; ``face_normals`` (m, 3), where they
     differ from the shading normals, cut off the directions below the face."""
     rays = samples_per_edge ** 2
     step = max(1, RAYS_PER_CHUNK // rays)
@@ -89,7 +89,8 @@ def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_e
     triangles = solution.scene.triangles
     above = np.einsum("mrk,mk->mr", directions.reshape(count, rays, 3), face_normals).ravel() > 0
     landed = np.flatnonzero((hit >= 0) & above)
-    side = (np.einsum("mk,mk->m", triangle_unit_normals(triangles[hit[landed]]), directions[landed]) > 0).astype(np.int64)
+    side = (np.einsum("mk,mk->m", triangle_unit_normals(triangles[hit[landed]]), directions[landed]) > 0)
+    side = side.astype(np.int64)
     radiosity = np.zeros((len(hit), 3))
     radiosity[landed] = solution.reflected_radiosity(hit[landed], bary[landed], side, seed)
     radiosity[(hit < 0) & above] = np.pi * np.asarray(solution.scene.world.radiance, dtype=np.float64)

@@ -28,11 +28,12 @@ TEXELS_PER_CHUNK = 8192
 class LightmapSettings:
     """indirect: "gather" (rays from each texel look up the solution), "interpolate" (element corners: fast,
     softer) or "auto" (the gather where the elements are coarse next to the distances between surfaces,
-    core.gather.gather_pays). gather_samples_per_edge: s, so s^2 gather rays per texel. subtexel_samples_per_edge: k, so direct light
-    is averaged over k x k points of each texel's footprint, each with the bake's light samples per edge divided by
-    k (rounded up): about the bake's shadow rays per texel, spread over its footprint, which on the sample scenes
-    measured closer to Cycles than as many rays from the texel centre (docs/benchmarks.md). dilation_texels: how far
-    values are grown into the empty texels around charts. seed: of the stratified gather directions."""
+    core.gather.gather_pays). gather_samples_per_edge: s, so s^2 gather rays per texel. subtexel_samples_per_edge:
+    k, so direct light is averaged over k x k points of each texel's footprint, each with the bake's light samples
+    per edge divided by k (rounded up): about the bake's shadow rays per texel, spread over its footprint, which on
+    the sample scenes measured closer to Cycles than as many rays from the texel centre (docs/benchmarks.md).
+    dilation_texels: how far values are grown into the empty texels around charts. seed: of the stratified gather
+    directions."""
 
     indirect: str = "gather"
     gather_samples_per_edge: int = 8
