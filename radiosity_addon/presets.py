@@ -18,9 +18,10 @@ PRESETS = {
     "HIGH": (48, 8, 1, 0.0005, 10),
 }
 ADAPTIVE_THRESHOLD = 0.3
-# Lightmap texels across the scene's diagonal per preset. Presets interpolate the indirect light from the element
-# corners: on both sample scenes it measured closer to Cycles than a 16 x 16 final gather, whose rays pick up the
-# hot elements on the rim of a light's opening and leave 2-3% noise per texel (docs/benchmarks.md).
+# Lightmap texels across the scene's diagonal per preset. Presets light texels with the automatic indirect method
+# (core.gather.gather_pays): rooms interpolate from the element corners, which on both sample scenes measured
+# closer to Cycles than a final gather (its rays pick up the hot elements on the rim of a light's opening and leave
+# noise per texel); scenes whose surfaces lie closer than 3 elements apart gather (docs/benchmarks.md).
 LIGHTMAP_TEXELS_ACROSS = {"DRAFT": 128, "MEDIUM": 256, "HIGH": 512}
 
 
@@ -57,8 +58,8 @@ def bake_settings(user: UserSettings, scene_size_m: float):
 
 
 def lightmap_settings(user: UserSettings, scene_size_m: float):
-    """(core.LightmapSettings, default texels per metre) for the user's choice: a preset's density with
-    interpolated indirect light, or CUSTOM's indirect method and gather samples at the user's density (or the
+    """(core.LightmapSettings, default texels per metre) for the user's choice: a preset's density with the
+    automatic indirect method, or CUSTOM's indirect method and gather samples at the user's density (or the
     Medium density when it is 0)."""
     from ..core.lightmap import LightmapSettings
     density = LIGHTMAP_TEXELS_ACROSS.get(user.quality, LIGHTMAP_TEXELS_ACROSS["MEDIUM"]) / scene_size_m
