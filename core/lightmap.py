@@ -63,12 +63,70 @@ class Lightmap:
     seconds: dict[str, float] = field(default_factory=dict)
 
 
+@dataclass
+class TexelPlan:
+    """The texels of one lightmap page and where their light is sampled, split into chunks that are lit
+    independently (``light_chunk``): with a saved solution (core.solution_file), each chunk can run as its own
+    task, in any order or process, and ``finish_lightmap`` puts the chunks' light together into the same image.
+
+    pixel: (m,) flat index of each texel in the (height, width) page; tri, barycentric: its scene triangle and
+    the barycentrics of its point; points, normals: (m, 3) the point (pushed out of closed geometry where it was
+    inside) and its face's unit normal; sub_points, sub_bary: (m, q, 3) points over its footprint; moved, contact:
+    (m,) pushed out / resting on another face; settings: with the indirect method chosen; texels_per_chunk: the
+    chunks' size (the rays of a chunk are seeded from its first texel)."""
+
+    width: int
+    height: int
+    pixel: np.ndarray
+    tri: np.ndarray
+    barycentric: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray
+    sub_points: np.ndarray
+    sub_bary: np.ndarray
+    moved: np.ndarray
+    contact: np.ndarray
+    settings: LightmapSettings
+    texels_per_chunk: int
+
+    @property
+    def texel_count(self) -> int:
+        return len(self.pixel)
+
+    @property
+    def chunk_count(self) -> int:
+        return -(-self.texel_count // self.texels_per_chunk)
+
+    def chunk(self, index: int) -> slice:
+        """The texels of chunk ``index``."""
+        if not 0 <= index < self.chunk_count:
+            raise SceneError(f"Lightmap chunk {index} does not exist: the page has {self.chunk_count} chunks.")
+        start = index * self.texels_per_chunk
+        return slice(start, min(start + self.texels_per_chunk, self.texel_count))
+
+
 def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int, height: int,
                   settings: LightmapSettings = LightmapSettings(), progress: Progress = no_progress,
                   cancelled=never_cancelled) -> Lightmap:
     """Light the texels of one atlas image: ``scene_triangle`` (t,) are the solved scene triangles it holds and
-    ``corner_uv`` (t, 3, 2) their UVs in [0, 1]."""
+    ``corner_uv`` (t, 3, 2) their UVs in [0, 1]. The three stages, ``plan_texels``, ``light_chunk`` per chunk and
+    ``finish_lightmap``, one after the other."""
     timer = Timer()
+    plan = plan_texels(solution, scene_triangle, corner_uv, width, height, settings)
+    timer.lap("texels")
+    light = np.zeros((plan.texel_count, 3))
+    for index in range(plan.chunk_count):
+        if cancelled():
+            raise BakeCancelled("Bake cancelled while lighting the lightmap.")
+        chunk = plan.chunk(index)
+        light[chunk] = light_chunk(solution, plan, index, timer)
+        progress(chunk.stop / plan.texel_count, f"Lightmap: {chunk.stop} of {plan.texel_count} texels lit")
+    return finish_lightmap(solution, plan, light, timer.laps)
+
+
+def plan_texels(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int, height: int,
+                settings: LightmapSettings = LightmapSettings()) -> TexelPlan:
+    """The texels of one page (``bake_lightmap``'s arguments), their sample points and the indirect method."""
     texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
     tri = np.asarray(scene_triangle, dtype=np.int64)[texels.triangle]
     scene, offset = solution.scene, solution.offset_m
@@ -80,28 +138,34 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
                                             settings.subtexel_samples_per_edge, points, moved, 4 * offset)
     if settings.indirect == "auto":
         settings = replace(settings, indirect="gather" if gather_pays(solution) else "interpolate")
-    timer.lap("texels")
-    light = np.zeros((len(points), 3))
-    for start in range(0, len(points), TEXELS_PER_CHUNK):
-        if cancelled():
-            raise BakeCancelled("Bake cancelled while lighting the lightmap.")
-        chunk = slice(start, min(start + TEXELS_PER_CHUNK, len(points)))
-        light[chunk] = _light_chunk(solution, settings, points[chunk], sub_points[chunk], sub_bary[chunk],
-                                    normals[chunk], tri[chunk], texels.barycentric[chunk], start, timer)
-        progress(chunk.stop / len(points), f"Lightmap: {chunk.stop} of {len(points)} texels lit")
-    light = solution.black_stays_black(light, tri)
+    return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, sub_points, sub_bary,
+                     moved, contact, settings, TEXELS_PER_CHUNK)
+
+
+def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = None) -> np.ndarray:
+    """(c, 3) light of the c texels of chunk ``index``: depends on the solution, the plan and the index only."""
+    chunk = plan.chunk(index)
+    return _light_chunk(solution, plan.settings, plan.points[chunk], plan.sub_points[chunk], plan.sub_bary[chunk],
+                        plan.normals[chunk], plan.tri[chunk], plan.barycentric[chunk], chunk.start,
+                        timer or Timer())
+
+
+def finish_lightmap(solution, plan: TexelPlan, light: np.ndarray, seconds: dict | None = None) -> Lightmap:
+    """The page from its texels' (m, 3) light (all chunks): contacts black, then dilated into the padding."""
+    light = solution.black_stays_black(light, plan.tri)
     # Resting on another face, no light gets there; texels pushed out to the visible floor beside a box keep that
     # light, so bilinear filtering shows no dark rim around the box.
-    light[contact & ~moved] = 0.0
+    light[plan.contact & ~plan.moved] = 0.0
+    height, width = plan.height, plan.width
     image = np.zeros((height * width, 3))
-    image[texels.pixel] = np.nan_to_num(light)
+    image[plan.pixel] = np.nan_to_num(light)
     covered = np.zeros(height * width, dtype=bool)
-    covered[texels.pixel] = True
-    image, _ = dilate(image.reshape(height, width, 3), covered.reshape(height, width), settings.dilation_texels)
+    covered[plan.pixel] = True
+    image, _ = dilate(image.reshape(height, width, 3), covered.reshape(height, width), plan.settings.dilation_texels)
     moved_texels = np.zeros(height * width, dtype=bool)
-    moved_texels[texels.pixel[moved]] = True
+    moved_texels[plan.pixel[plan.moved]] = True
     return Lightmap(image.astype(np.float32), covered.reshape(height, width), moved_texels.reshape(height, width),
-                    len(texels.pixel), settings.indirect, timer.laps)
+                    plan.texel_count, plan.settings.indirect, dict(seconds or {}))
 
 
 def _light_chunk(solution, settings, points, sub_points, sub_bary, normals, tri, barycentric, first_texel, timer):

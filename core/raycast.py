@@ -16,16 +16,25 @@ CHUNK_RAYS = 65536
 
 
 class RayCaster:
-    """Embree scene over (T, 3, 3) triangles; counts the rays it casts in ``rays_cast``."""
+    """Embree scene over (T, 3, 3) triangles; counts the rays it casts in ``rays_cast``. Pickles as its triangles
+    and rebuilds the scene when unpickled, with the threads of the machine that loads it."""
 
     def __init__(self, triangles: np.ndarray, threads: int | None = None):
+        self._triangles = np.ascontiguousarray(triangles, dtype=np.float32)
         self._scene = rtcore_scene.EmbreeScene()
-        TriangleMesh(self._scene, np.ascontiguousarray(triangles, dtype=np.float32))
+        TriangleMesh(self._scene, self._triangles)
         self._threads = max(1, threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
         self.rays_cast = 0
         # Build the BVH now, not inside the first worker thread.
         self._scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32))
+
+    def __getstate__(self) -> dict:
+        return {"triangles": self._triangles, "rays_cast": self.rays_cast}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["triangles"])
+        self.rays_cast = state["rays_cast"]
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, distances: np.ndarray) -> np.ndarray:
         """True where something lies along origin + t direction for 0 < t < distance (unit directions)."""

@@ -6,11 +6,12 @@ import pytest
 from core import BakeSettings, Material, Scene, SceneError, SunLight, World, bake
 from core.atlas import layout_atlas, pack_blocks, pages_without_overlap
 import core.lightmap
-from core.lightmap import LightmapSettings, bake_lightmap, dilate
+from core.lightmap import LightmapSettings, bake_lightmap, dilate, finish_lightmap, light_chunk, plan_texels
 from core.progress import BakeCancelled
 from core.geometry import triangle_unit_normals
 from core.gather import mean_free_path_m
 from core.raycast import RayCaster
+from core.solution_file import load_solution, save_solution
 from core.texels import rasterize
 from shapes import box_faces, quad
 
@@ -215,6 +216,37 @@ def test_same_seed_same_lightmap():
     first = lightmap_of(scene, [floor, block], LightmapSettings(gather_samples_per_edge=3))[0].light
     second = lightmap_of(scene, [floor, block], LightmapSettings(gather_samples_per_edge=3))[0].light
     assert np.array_equal(first, second)
+
+
+def test_chunks_lit_in_any_order_from_a_saved_solution_make_the_same_page(monkeypatch, tmp_path):
+    """The texel stage as independent tasks, as a render farm runs it: the solution written to a file and read
+    back (a new ray-casting scene built from it), the page's chunks lit from that copy in reverse order, then put
+    together. The page equals the one-process bake bit for bit, gather and sub-texel shadow rays included (both
+    are seeded per chunk)."""
+    monkeypatch.setattr(core.lightmap, "TEXELS_PER_CHUNK", 300)
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    block = np.concatenate(box_faces((-0.3, -0.3, 0), (0.3, 0.3, 0.6), inward=False))
+    triangles = np.concatenate([floor, block])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.3, 0.2, -1.0), strength_w_m2=3.0, angle_rad=0.1)],
+                  world=World((0.2, 0.3, 0.4)))
+    settings = LightmapSettings(indirect="gather", gather_samples_per_edge=3)
+    whole, layout, corner_uv = lightmap_of(scene, [floor, block], settings)
+    save_solution(bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5)), str(tmp_path / "solved"))
+    solution = load_solution(str(tmp_path / "solved"))
+    plan = plan_texels(solution, np.arange(len(triangles)), corner_uv, layout.width, layout.height, settings)
+    assert plan.chunk_count >= 3
+    light = np.zeros((plan.texel_count, 3))
+    for index in reversed(range(plan.chunk_count)):
+        light[plan.chunk(index)] = light_chunk(solution, plan, index)
+    assert np.array_equal(finish_lightmap(solution, plan, light).light, whole.light)
+
+
+def test_a_missing_or_foreign_solution_file_is_named(tmp_path):
+    (tmp_path / "foreign").write_bytes(b"not a solution")
+    for path in (tmp_path / "missing", tmp_path / "foreign"):
+        with pytest.raises(SceneError, match=str(path)):
+            load_solution(str(path))
 
 
 def test_seams_and_contacts_between_touching_cubes_on_a_floor():

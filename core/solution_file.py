@@ -1,0 +1,54 @@
+"""A solved scene on disk, so that the output stages (lightmap texel chunks, vertex colours) can run later, in
+another process or on another machine, over the same solution.
+
+The file holds what outputs read: the scene, the element mesh, the solved elements, the direct lighting (its
+emitter clusters) and the triangles of the ray-casting scene, which is rebuilt on load. It leaves out the solver's
+working state (links, shooting queues), which no output reads and which is the largest part of a solve. The
+format is a versioned pickle: load only files you or your farm wrote.
+"""
+from __future__ import annotations
+
+import copy
+import os
+import pickle
+
+from .scene import SceneError
+from .solution import Solution
+
+FORMAT = "radiosity-solution"
+VERSION = 1
+
+
+def save_solution(solution: Solution, path: str) -> None:
+    """Write ``solution`` to ``path`` atomically: a file written in full replaces the old one, or nothing
+    changes."""
+    saved = copy.copy(solution)
+    saved.state = None
+    partial = f"{path}.partial"
+    try:
+        with open(partial, "wb") as file:
+            pickle.dump({"format": FORMAT, "version": VERSION, "solution": saved}, file,
+                        protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(partial, path)
+    except OSError as error:
+        if os.path.exists(partial):
+            os.remove(partial)
+        raise SceneError(f"Cannot write the solution to '{path}': {error.strerror or error}.") from error
+
+
+def load_solution(path: str) -> Solution:
+    """The solution saved at ``path``; SceneError names the file if it is missing, unreadable, or not a solution
+    of this version."""
+    try:
+        with open(path, "rb") as file:
+            saved = pickle.load(file)
+    except OSError as error:
+        raise SceneError(f"Cannot read the solution file '{path}': {error.strerror or error}.") from error
+    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, IndexError, TypeError) as error:
+        raise SceneError(f"'{path}' is not a saved radiosity solution (or it is truncated).") from error
+    if not isinstance(saved, dict) or saved.get("format") != FORMAT:
+        raise SceneError(f"'{path}' is not a saved radiosity solution.")
+    if saved.get("version") != VERSION:
+        raise SceneError(f"'{path}' is a solution of format version {saved.get('version')}; this baker reads "
+                         f"version {VERSION}. Bake the scene again.")
+    return saved["solution"]
