@@ -42,6 +42,12 @@ class ReceiverField:
         self.points, self.normals, self.caster, self.offset_m = points, normals, caster, offset_m
         self.reach = np.asarray(reach_m, dtype=np.float64)
         self.entries = np.flatnonzero(alive)
+        # How far above each receiver its side stays open: a visibility ray ends no higher above a receiver than
+        # half of that, so a receiver under a surface close above it (a decal's back under the wall) is not
+        # lifted through that surface and seen from the other side.
+        self.clearance = np.full(len(points), np.inf)
+        start = points[self.entries] + offset_m * normals[self.entries]
+        self.clearance[self.entries] = caster.hit_distance(start, normals[self.entries]) + offset_m
         self.cell_m = max(float(self.reach[self.entries].max(initial=0.0)), 1e-9)
         keys = self._keys(np.floor(points[self.entries] / self.cell_m).astype(np.int64))
         order = np.argsort(keys, kind="stable")
@@ -97,7 +103,8 @@ class ReceiverField:
         if visibility and len(row):
             lift = np.maximum(LIFT_FRACTION * np.sqrt(distance2), self.offset_m)[:, None]
             start = points[row] + lift * normals[row]
-            end = self.points[receiver] + lift * self.normals[receiver]
+            end = self.points[receiver] + np.minimum(lift, 0.5 * self.clearance[receiver, None]) * \
+                self.normals[receiver]
             ray = end - start
             length = lengths(ray)
             moving = length > 1e-9

@@ -50,6 +50,12 @@ class RayCaster:
         u, v = result[:, 1], result[:, 2]
         return result[:, 0].astype(np.int64), np.stack([1.0 - u - v, u, v], axis=1)
 
+    def hit_distance(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """(m,) distance to the first surface along each unit direction (inf where the ray escapes)."""
+        hit, bary = self.first_hit(origins, directions)
+        points = np.einsum("mc,mck->mk", bary, self._triangles[np.maximum(hit, 0)])
+        return np.where(hit >= 0, np.linalg.norm(points - origins, axis=1), np.inf)
+
     def _run(self, origins, directions, distances, query):
         count = len(origins)
         self.rays_cast += count
