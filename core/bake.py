@@ -20,7 +20,8 @@ from . import adaptive
 from .cluster_tree import build_tree
 from .clusters import cluster_pieces
 from .direct import DirectLighting
-from .hierarchical import HierarchicalState, Receivers, node_deviation, node_radiosity, sample_exposure, solve
+from .hierarchical import (HierarchicalState, Receivers, live_side_test, node_deviation, node_radiosity,
+                           sample_exposure, side_direct_irradiance, solve)
 from .lights import direct_irradiance
 from .links import OPENING, LinkSources, build_links, covered_share, refine_links
 from .mesh import build_mesh, bury, elements_of, node_reflectance
@@ -138,15 +139,19 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     # A side whose hemisphere meets no solved surface exchanges no light with the scene (the bottom of a box
     # resting on the floor, facing the void under it; a ground plane under an open sky): it keeps its direct light
     # but sends nothing, so that it does not dilute its clusters' means.
-    covered = covered_share(caster, receivers.point, receivers.normal, offset, ~scene.casts_only, settings.seed)
+    node_element = np.full(len(mesh.node_bary), -1)
+    node_element[clusters.piece_node] = clusters.piece_element
+    receives = live_side_test(scene, mesh, node_element, exposed_samples.sum(axis=2) > 0)
+    covered = covered_share(caster, receivers.point, receivers.normal, offset, receives, settings.seed)
     isolated = covered == 0
     source_samples = exposed_samples.copy()
     source_samples[receivers.element[isolated], receivers.side[isolated]] = 0.0
     timer.lap("elements")
     progress(0.0, f"Direct light on {len(receivers.element)} element sides")
     direct = np.zeros((clusters.count, 2, 3))
-    direct[receivers.element, receivers.side] = direct_irradiance(
-        scene, caster, receivers.point, receivers.normal, offset, settings.light_samples_per_edge, settings.seed)
+    direct[receivers.element, receivers.side] = side_direct_irradiance(
+        scene, clusters, caster, exposed_samples, receivers.element, receivers.side, offset,
+        settings.light_samples_per_edge, settings.seed)
     timer.lap("direct light")
     tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, source_samples,
                       clusters.sample_point, clusters.sample_normal)
@@ -171,8 +176,6 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     timer.lap("link refinement")
     solve(state, settings.residual_threshold, settings.max_shots, lambda: caster.rays_cast, progress, cancelled)
     timer.lap("solve")
-    node_element = np.full(len(mesh.node_bary), -1)
-    node_element[clusters.piece_node] = clusters.piece_element
     point = np.repeat(clusters.centroid[:, None], 2, axis=1)
     point[receivers.element, receivers.side] = receivers.point
     reach = np.maximum(np.linalg.norm(clusters.high - clusters.low, axis=1), size)

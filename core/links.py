@@ -204,9 +204,12 @@ def _refined(links, sources, caster, points, normals, deviation, radiosity, irra
     return Links(*(np.concatenate(column) for column in zip(*[part.columns for part in settled])), links.covered)
 
 
-def covered_share(caster: RayCaster, points: np.ndarray, normals: np.ndarray, offset_m: float,
-                  solved: np.ndarray, seed: int) -> np.ndarray:
-    """(R,) share of each point's cosine-weighted hemisphere covered by solved surfaces (stratified, seeded)."""
+def covered_share(caster: RayCaster, points: np.ndarray, normals: np.ndarray, offset_m: float, receives,
+                  seed: int) -> np.ndarray:
+    """(R,) share of each point's cosine-weighted hemisphere covered by surfaces that receive light (stratified,
+    seeded): ``receives(triangle, barycentric, direction)`` tells, for rays that hit, whether the side they land
+    on is a live element side. Light landing on a dead side (the inside of an attic that no lamp or sky lights)
+    leaves the solve, and no link reaches it, so it must not count here either."""
     share = np.zeros(len(points))
     rays = COVERAGE_SAMPLES ** 2
     step = max(1, (1 << 20) // rays)
@@ -215,8 +218,11 @@ def covered_share(caster: RayCaster, points: np.ndarray, normals: np.ndarray, of
         local = cosine_hemisphere(stratified_square(len(points[rows]), COVERAGE_SAMPLES, seed + start))
         directions = np.einsum("msi,mik->msk", local, tangent_frames(normals[rows])).reshape(-1, 3)
         origins = np.repeat(points[rows] + offset_m * normals[rows], rays, axis=0)
-        hit, _ = caster.first_hit(origins, directions)
-        share[rows] = ((hit >= 0) & solved[np.maximum(hit, 0)]).reshape(-1, rays).mean(axis=1)
+        hit, barycentric = caster.first_hit(origins, directions)
+        landed = np.flatnonzero(hit >= 0)
+        received = np.zeros(len(hit), dtype=bool)
+        received[landed] = receives(hit[landed], barycentric[landed], directions[landed])
+        share[rows] = received.reshape(-1, rays).mean(axis=1)
     return share
 
 
