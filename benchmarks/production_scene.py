@@ -14,7 +14,9 @@ Part 2, error: at ``--compare-triangles``, each quality bakes a lightmap at ``--
 baked on that UV map: twice at ``--reference`` samples (seeds 1 and 2; their mean is the reference and their
 difference its noise, removed from every squared error) and once at each of ``--samples``. The error is the
 relative RMSE over the texels Cycles bakes, as in benchmarks/lightmap_vs_cycles.py (linked duplicates past the
-first are left out: Cycles bakes a shared mesh's UV map once; so are texels pushed out of closed geometry).
+first are left out: Cycles bakes a shared mesh's UV map once; so are texels pushed out of closed geometry). The
+table is printed twice: over all those texels, and without those on coplanar overlaps, where Cycles bakes two
+same-facing faces in one plane black (benchmarks/coplanar_overlaps.py).
 """
 from __future__ import annotations
 
@@ -87,6 +89,7 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
     package = load_extension()
     package.register()
     from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY, LightmapOptions
+    from coplanar_overlaps import coplanar_overlap_texels
     scene_file = courtyard_file(count, folder)
     ours = {}
     for quality in qualities:
@@ -98,23 +101,25 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
         ours[quality] = (page.light.astype(np.float64), seconds)
         height, width = page.light.shape[:2]
         moved = page.moved
+        overlap = coplanar_overlap_texels(bake.export.scene, *bake.lightmap_plan.page_triangles[0], width, height)
     objects = [bpy.data.objects[entry["name"]] for entry in report["objects"] if entry["uv_map"]]
     objects = [obj for obj in objects if OFFSET_PROPERTY not in obj]
     mask = uv_coverage(objects, "Lightmap", width, height) & ~moved
     first, reference_seconds = cycles_lightmap_bake(objects, "Lightmap", width, height, reference_samples, seed=1)
     second, _ = cycles_lightmap_bake(objects, "Lightmap", width, height, reference_samples, seed=2)
     reference = 0.5 * (first + second)
-    variance = float(np.mean((first[mask] - second[mask]) ** 2) / 4.0)
-    rows = []
-    for spp in samples:
-        light, seconds = cycles_lightmap_bake(objects, "Lightmap", width, height, spp, seed=3)
-        rows.append((f"Cycles {spp} spp", seconds, relative_rmse(light, reference, mask, variance)))
-    print(f"\ncourtyard {count} triangles, lightmap {width} x {height} ({density:g} texels/m), {int(mask.sum())} "
-          f"texels compared on {len(objects)} objects; reference: 2 x Cycles {reference_samples} spp "
-          f"({reference_seconds:.1f} s each), its noise {np.sqrt(variance) / reference[mask].mean():.4f} (removed "
-          "from the errors below)")
-    print_against_cycles(rows, {quality: (relative_rmse(light, reference, mask, variance), seconds)
-                                for quality, (light, seconds) in ours.items()})
+    ladder = [(spp,) + cycles_lightmap_bake(objects, "Lightmap", width, height, spp, seed=3) for spp in samples]
+    for compared, which in ((mask, "all texels"), (mask & ~overlap, "without texels on coplanar overlaps "
+                                                                    "(benchmarks/coplanar_overlaps.py)")):
+        variance = float(np.mean((first[compared] - second[compared]) ** 2) / 4.0)
+        print(f"\ncourtyard {count} triangles, lightmap {width} x {height} ({density:g} texels/m), "
+              f"{int(compared.sum())} texels compared on {len(objects)} objects, {which}; reference: 2 x Cycles "
+              f"{reference_samples} spp ({reference_seconds:.1f} s each), its noise "
+              f"{np.sqrt(variance) / reference[compared].mean():.4f} (removed from the errors below)")
+        rows = [(f"Cycles {spp} spp", seconds, relative_rmse(light, reference, compared, variance))
+                for spp, light, seconds in ladder]
+        print_against_cycles(rows, {quality: (relative_rmse(light, reference, compared, variance), seconds)
+                                    for quality, (light, seconds) in ours.items()})
     kinds = {}  # objects by name without their number: "column north", "ceiling east", "crate"
     for obj in objects:
         kinds.setdefault(obj.name.rstrip("0123456789. "), []).append(obj)
@@ -128,7 +133,7 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
         bias = [light[own].mean() / reference[own].mean() - 1 for light, _ in ours.values()]
         print(f"{name:26s}" + "".join(f"{error:10.4f}" for error in errors) +
               "   " + " ".join(f"{b:+.3f}" for b in bias))
-    np.savez(folder / f"compare_{count}_{density:g}.npz", first=first, second=second, mask=mask,
+    np.savez(folder / f"compare_{count}_{density:g}.npz", first=first, second=second, mask=mask, overlap=overlap,
              **{quality: light for quality, (light, _) in ours.items()})
 
 

@@ -204,12 +204,12 @@ def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarr
         opposite = number.get(tuple((-planes[plane]).tolist()))
         if opposite is not None:
             here = np.flatnonzero(point_plane == plane)
-            contact[here] = _inside_any(points[here], normals[point_triangle[here]],
+            contact[here] = inside_any_triangle(points[here], normals[point_triangle[here]],
                                         scene_triangles_m[plane_of == opposite], CONTACT_BEHIND * tolerance_m)
     return contact
 
 
-def _inside_any(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
+def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
     """(p,) whether each point (near the triangles' plane) lies inside any of the (q, 3, 3) triangles whose plane
     is at most ``behind_m`` behind it along its unit normal."""
     inside = np.zeros(len(points), dtype=bool)

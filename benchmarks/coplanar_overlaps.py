@@ -1,0 +1,42 @@
+"""Texels on faces that another object's face covers in the same plane, facing the same way (two arcades'
+single-sided ceilings running into each other at a corner). Cycles bakes such a pair black: the rays from one face
+hit the other at distance zero. No render of the scene shows them black, and we light them as the face alone
+would be lit, so the benchmarks give the error against Cycles with and without these texels."""
+from __future__ import annotations
+
+import numpy as np
+
+from radiosity_baker.core.geometry import triangle_unit_normals
+from radiosity_baker.core.texels import PLANE_NORMAL_STEPS, inside_any_triangle, rasterize
+
+PLANE_TOLERANCE_M = 1e-3
+
+
+def coplanar_overlap_texels(scene, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int,
+                            height: int) -> np.ndarray:
+    """(height, width) True for texels (centre inside a triangle of the page: ``scene_triangle`` (t,) with UVs
+    ``corner_uv`` (t, 3, 2)) whose point lies inside a triangle of another object in the same plane (within
+    PLANE_TOLERANCE_M) with the same facing."""
+    triangles = scene.triangles
+    normals = triangle_unit_normals(triangles)
+    offsets = np.einsum("tk,tk->t", normals, triangles[:, 0])
+    keys = np.concatenate([np.round(normals * PLANE_NORMAL_STEPS), np.round(offsets / PLANE_TOLERANCE_M)[:, None]],
+                          axis=1).astype(np.int64)
+    _, plane_of = np.unique(keys, axis=0, return_inverse=True)
+    plane_of = plane_of.ravel()
+    texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
+    inside = texels.centre_inside
+    tri = np.asarray(scene_triangle)[texels.triangle[inside]]
+    points = np.einsum("mc,mck->mk", texels.barycentric[inside], triangles[tri])
+    overlap = np.zeros(len(tri), dtype=bool)
+    for plane in np.unique(plane_of[tri]):  # one step per plane, over the other objects' triangles in it
+        here = np.flatnonzero(plane_of[tri] == plane)
+        for obj in np.unique(scene.object_index[tri[here]]):
+            mine = here[scene.object_index[tri[here]] == obj]
+            others = np.flatnonzero((plane_of == plane) & (scene.object_index != obj))
+            if len(others):
+                overlap[mine] = inside_any_triangle(points[mine], normals[tri[mine]], triangles[others],
+                                                    PLANE_TOLERANCE_M)
+    image = np.zeros(width * height, dtype=bool)
+    image[texels.pixel[inside][overlap]] = True
+    return image.reshape(height, width)
