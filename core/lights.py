@@ -18,6 +18,7 @@ from .sampling import concentric_disk, cosine_hemisphere, stratified_square
 from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight
 
 DISK_POLYGON_SIDES = 64
+UNIFORM_CHOICE = 0.1  # of one_light_irradiance's light choices, made uniformly
 
 
 def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
@@ -36,6 +37,36 @@ def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, norma
     if world and radiance.max() > 0:
         escaped = _world_escape_share(caster, points, normals, offset_m, samples_per_edge,
                                        seed + 7919 * len(scene.lights))
+        irradiance += np.pi * escaped[:, None] * radiance
+    return irradiance
+
+
+def one_light_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray, offset_m: float,
+                         seed: int, world: bool = True) -> np.ndarray:
+    """(m, 3) an unbiased estimate of ``direct_irradiance`` with one light sample per point: each point casts its
+    shadow ray to one light, chosen in proportion to the lights' unshadowed irradiance there (a share
+    UNIFORM_CHOICE of the choices uniform, so that no light that reaches a point is left out), and divides by the
+    chance of that choice (light selection: Shirley, Wang & Zimmerman 1996). For final-gather hits, where the 64
+    rays of a texel average the choices out, and a scene's many lamps then cost one shadow ray, not one each."""
+    irradiance = np.zeros((len(points), 3))
+    lights = scene.lights
+    if lights and len(points):
+        colours = np.array([light.color for light in lights], dtype=np.float64)
+        unshadowed = np.stack([_SAMPLERS[type(light)](light, None, points, normals, offset_m, 1, seed, None)
+                               for light in lights], axis=1) * colours.sum(axis=1)
+        total = unshadowed.sum(axis=1, keepdims=True)
+        share = np.where(total > 0, unshadowed / np.maximum(total, 1e-300), 1.0 / len(lights))
+        chance = UNIFORM_CHOICE / len(lights) + (1.0 - UNIFORM_CHOICE) * share
+        draw = np.random.default_rng(seed).random(len(points))
+        pick = np.minimum((draw[:, None] > np.cumsum(chance, axis=1)).sum(axis=1), len(lights) - 1)
+        for index, light in enumerate(lights):
+            rows = np.flatnonzero(pick == index)
+            scalar = _SAMPLERS[type(light)](light, caster, points[rows], normals[rows], offset_m, 1,
+                                            seed + 7919 * index, None)
+            irradiance[rows] += (scalar / chance[rows, index])[:, None] * colours[index]
+    radiance = np.asarray(scene.world.radiance, dtype=np.float64)
+    if world and radiance.max() > 0:
+        escaped = _world_escape_share(caster, points, normals, offset_m, 1, seed + 7919 * len(lights))
         irradiance += np.pi * escaped[:, None] * radiance
     return irradiance
 
@@ -95,7 +126,7 @@ def _point_like(light, caster, points, normals, offset_m, samples_per_edge, seed
         axis = np.asarray(light.direction, dtype=np.float64) / np.linalg.norm(light.direction)
         irradiance *= spot_mask(-direction @ axis, light.spot_size_rad, light.spot_blend)
     lit = np.flatnonzero(irradiance > 0)
-    if len(lit) == 0:  # nothing faces the light: no shadow rays to cast
+    if caster is None or len(lit) == 0:  # unshadowed, or nothing faces the light: no shadow rays to cast
         return irradiance
     if light.radius_m > 0:
         disk = concentric_disk(stratified_square(len(lit), samples_per_edge, seed)) * light.radius_m
@@ -113,7 +144,7 @@ def _sun(light: SunLight, caster, points, normals, offset_m, samples_per_edge, s
     to_sun = -np.asarray(light.direction, dtype=np.float64) / np.linalg.norm(light.direction)
     irradiance = light.strength_w_m2 * np.maximum(normals @ to_sun, 0.0)
     lit = np.flatnonzero(irradiance > 0)
-    if len(lit) == 0:  # nothing faces the light: no shadow rays to cast
+    if caster is None or len(lit) == 0:  # unshadowed, or nothing faces the light: no shadow rays to cast
         return irradiance
     count = samples_per_edge if light.angle_rad > 0 else 1
     disk = concentric_disk(stratified_square(len(lit), count, seed)) * np.tan(light.angle_rad / 2.0)
@@ -140,7 +171,7 @@ def _area(light: AreaLight, caster, points, normals, offset_m, samples_per_edge,
     irradiance[front] = np.pi * radiance * point_to_polygon(
         points[front], normals[front], np.broadcast_to(polygon, (len(front),) + polygon.shape).copy())
     lit = np.flatnonzero(irradiance > 0)
-    if len(lit) == 0:  # nothing faces the light: no shadow rays to cast
+    if caster is None or len(lit) == 0:  # unshadowed, or nothing faces the light: no shadow rays to cast
         return irradiance
     unit = stratified_square(len(lit), samples_per_edge, seed)
     if light.shape in ("DISK", "ELLIPSE"):

@@ -177,8 +177,8 @@ class Solution:
                             seed_offset: int = 0) -> np.ndarray:
         """(m, 3) reflected radiosity rho H (W m^-2, emission excluded) on the given side (0 front, 1 back) of
         surface points: what a final-gather ray sees where it lands. The first bounce is exact at the point: the
-        reflectance there (texture included) x (direct irradiance by one shadow ray per light, ``seed_offset``
-        shifting their seed, + the indirect irradiance of the element side under it). So a sunlit patch and the
+        reflectance there (texture included) x (direct irradiance by one shadow ray to one light chosen by
+        importance, ``seed_offset`` shifting their seed, + the indirect irradiance of the element side under it). So a sunlit patch and the
         shade beside it on one coarse element reflect what each receives (two-pass methods, radiosity paper
         section 10). 0 on dead sides and unsolved triangles."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
@@ -192,7 +192,7 @@ class Solution:
         triangles = self.scene.triangles[scene_triangle[lit]]
         points = np.einsum("mc,mck->mk", barycentric[lit], triangles)
         normals = triangle_unit_normals(triangles) * np.where(face[alive] == FRONT, 1.0, -1.0)[:, None]
-        irradiance = self.direct.irradiance(points, normals, 1, seed_offset) + \
+        irradiance = self.direct.irradiance(points, normals, 1, seed_offset, one_light=True) + \
             np.pi * self._indirect_light()[element[alive], face[alive]]
         out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * irradiance
         return out

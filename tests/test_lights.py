@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from core.lights import area_light_area_m2, direct_irradiance, spot_mask
+from core.lights import area_light_area_m2, direct_irradiance, one_light_irradiance, spot_mask
 from core.raycast import RayCaster
 from core.scene import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
-from shapes import quad
+from shapes import box_faces, quad
 
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -219,3 +219,27 @@ def test_a_smooth_low_poly_cylinder_lit_by_an_emissive_panel_gets_the_panel_s_cl
     assert np.abs(smooth - expected).max() < 1e-5 * expected.max()
     assert np.abs(flat - expected).max() > 0.01 * expected.max()
 
+
+
+def test_one_light_per_point_is_unbiased():
+    """Four lights of different kinds, colours and strengths over a floor, a block casting their shadows: the
+    mean over 40,000 floor points of the one-light estimate (one shadow ray to a light chosen by importance,
+    divided by the chance of choosing it) equals the mean of every light's own shadow ray, within 2% per channel
+    (its sampling error there is under 0.5%). Without the division it would come out at about a quarter."""
+    floor = quad((-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0))
+    block = np.concatenate(box_faces((-1, -1, 0), (1, 1, 2), inward=False))
+    triangles = np.concatenate([floor, block])
+    lights = [SunLight("sun", (0.3, 0.2, -1.0), 2.0, color=(1.0, 0.9, 0.7)),
+              PointLight("lamp", (3.0, 0.0, 1.5), 400.0, color=(0.2, 0.4, 1.0), radius_m=0.1),
+              SpotLight("spot", (-3.0, -3.0, 3.0), (0.5, 0.5, -1.0), 800.0, 1.0, color=(1.0, 0.3, 0.2)),
+              AreaLight("panel", (0.0, 3.5, 2.5), (0.0, 0.0, -1.0), 300.0, size_m=1.0)]
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)], lights=lights,
+                  world=World((0.1, 0.1, 0.1)))
+    caster = RayCaster(scene.triangles)
+    rng = np.random.default_rng(3)
+    points = np.column_stack([rng.uniform(-5, 5, 40_000), rng.uniform(-5, 5, 40_000), np.zeros(40_000)])
+    points = points[np.abs(points[:, :2]).max(axis=1) > 1.0]  # not under the block
+    normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
+    every = direct_irradiance(scene, caster, points, normals, 1e-4, 1, 5).mean(axis=0)
+    one = one_light_irradiance(scene, caster, points, normals, 1e-4, 5).mean(axis=0)
+    assert one == pytest.approx(every, rel=0.02)
