@@ -118,9 +118,10 @@ class Receivers:
 @dataclass
 class HierarchicalState:
     """Per element side (n, 2, 3): direct irradiance and total irradiance (W m^-2); per element reflectance
-    (n, 3); per side (n, 2) the exposed area and the area that sends light into the scene (0 for isolated sides); the solve's history, the enclosure (the share of the light leaving the
-    receivers that lands on the scene, from the links' covered shares), the irradiance each receiver last gathered
-    from reflected light and what the last iteration added to it (R, 3)."""
+    (n, 3); per side (n, 2) the exposed area and the area that sends light into the scene (0 for isolated sides);
+    the solve's history, the enclosure (the share of the light leaving the receivers that lands on the scene, from
+    the links' covered shares), the irradiance each receiver last gathered from reflected light and what the last
+    iteration added to it (R, 3)."""
 
     clusters: FaceClusters
     tree: ClusterTree

@@ -33,11 +33,8 @@ def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, norma
         sampler = _SAMPLERS[type(light)]
         scalar = sampler(light, caster, points, normals, offset_m, samples_per_edge, seed + 7919 * index, lift)
         irradiance += scalar[:, None] * np.asarray(light.color, dtype=np.float64)
-    radiance = np.asarray(scene.world.radiance, dtype=np.float64)
-    if world and radiance.max() > 0:
-        escaped = _world_escape_share(caster, points, normals, offset_m, samples_per_edge,
-                                       seed + 7919 * len(scene.lights))
-        irradiance += np.pi * escaped[:, None] * radiance
+    if world:
+        irradiance += _world(scene, caster, points, normals, offset_m, samples_per_edge, seed)
     return irradiance
 
 
@@ -64,11 +61,19 @@ def one_light_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, no
             scalar = _SAMPLERS[type(light)](light, caster, points[rows], normals[rows], offset_m, 1,
                                             seed + 7919 * index, None)
             irradiance[rows] += (scalar / chance[rows, index])[:, None] * colours[index]
-    radiance = np.asarray(scene.world.radiance, dtype=np.float64)
-    if world and radiance.max() > 0:
-        escaped = _world_escape_share(caster, points, normals, offset_m, 1, seed + 7919 * len(lights))
-        irradiance += np.pi * escaped[:, None] * radiance
+    if world:
+        irradiance += _world(scene, caster, points, normals, offset_m, 1, seed)
     return irradiance
+
+
+def _world(scene: Scene, caster, points, normals, offset_m, samples_per_edge, seed) -> np.ndarray:
+    """(m, 3) irradiance from the world: pi L_world x the share of directions that escape."""
+    radiance = np.asarray(scene.world.radiance, dtype=np.float64)
+    if radiance.max() <= 0:
+        return np.zeros((len(points), 3))
+    escaped = _world_escape_share(caster, points, normals, offset_m, samples_per_edge,
+                                  seed + 7919 * len(scene.lights))
+    return np.pi * escaped[:, None] * radiance
 
 
 def spot_mask(cos_to_axis: np.ndarray, spot_size_rad: float, spot_blend: float) -> np.ndarray:

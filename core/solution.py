@@ -178,9 +178,9 @@ class Solution:
         """(m, 3) reflected radiosity rho H (W m^-2, emission excluded) on the given side (0 front, 1 back) of
         surface points: what a final-gather ray sees where it lands. The first bounce is exact at the point: the
         reflectance there (texture included) x (direct irradiance by one shadow ray to one light chosen by
-        importance, ``seed_offset`` shifting their seed, + the indirect irradiance of the element side under it). So a sunlit patch and the
-        shade beside it on one coarse element reflect what each receives (two-pass methods, radiosity paper
-        section 10). 0 on dead sides and unsolved triangles."""
+        importance, ``seed_offset`` shifting their seed, + the indirect irradiance of the element side under it).
+        So a sunlit patch and the shade beside it on one coarse element reflect what each receives (two-pass
+        methods, radiosity paper section 10). 0 on dead sides and unsolved triangles."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         barycentric = np.asarray(barycentric, dtype=np.float64)
         solved, node = self.pieces(scene_triangle, barycentric)
