@@ -6,8 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from radiosity_baker.core.geometry import triangle_unit_normals
-from radiosity_baker.core.texels import PLANE_NORMAL_STEPS, inside_any_triangle, rasterize
+from radiosity_baker.core.texels import inside_any_triangle, rasterize, triangle_planes
 
 PLANE_TOLERANCE_M = 1e-3
 
@@ -18,12 +17,7 @@ def coplanar_overlap_texels(scene, scene_triangle: np.ndarray, corner_uv: np.nda
     ``corner_uv`` (t, 3, 2)) whose point lies inside a triangle of another object in the same plane (within
     PLANE_TOLERANCE_M) with the same facing."""
     triangles = scene.triangles
-    normals = triangle_unit_normals(triangles)
-    offsets = np.einsum("tk,tk->t", normals, triangles[:, 0])
-    keys = np.concatenate([np.round(normals * PLANE_NORMAL_STEPS), np.round(offsets / PLANE_TOLERANCE_M)[:, None]],
-                          axis=1).astype(np.int64)
-    _, plane_of = np.unique(keys, axis=0, return_inverse=True)
-    plane_of = plane_of.ravel()
+    _, plane_of, normals = triangle_planes(triangles, PLANE_TOLERANCE_M)
     texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
     inside = texels.centre_inside
     tri = np.asarray(scene_triangle)[texels.triangle[inside]]

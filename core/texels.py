@@ -191,12 +191,7 @@ def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarr
     texel; each point is then tested against the triangles of the opposite plane that are not behind it by more
     than CONTACT_BEHIND of the tolerance: two sheets back to back (a decal 3 mm behind a single-sided wall) face
     open space on both sides and stay lit."""
-    normals = triangle_unit_normals(scene_triangles_m)
-    offsets = np.einsum("tk,tk->t", normals, scene_triangles_m[:, 0])
-    keys = np.concatenate([np.round(normals * PLANE_NORMAL_STEPS), np.round(offsets / tolerance_m)[:, None]],
-                          axis=1).astype(np.int64)
-    planes, plane_of = np.unique(keys, axis=0, return_inverse=True)
-    plane_of = plane_of.ravel()
+    planes, plane_of, normals = triangle_planes(scene_triangles_m, tolerance_m)
     number = {tuple(plane): index for index, plane in enumerate(planes.tolist())}
     point_plane = plane_of[point_triangle]
     contact = np.zeros(len(points), dtype=bool)
@@ -205,8 +200,20 @@ def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarr
         if opposite is not None:
             here = np.flatnonzero(point_plane == plane)
             contact[here] = inside_any_triangle(points[here], normals[point_triangle[here]],
-                                        scene_triangles_m[plane_of == opposite], CONTACT_BEHIND * tolerance_m)
+                                                scene_triangles_m[plane_of == opposite], CONTACT_BEHIND * tolerance_m)
     return contact
+
+
+def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The planes of (T, 3, 3) triangles, matched by normal (to 1/PLANE_NORMAL_STEPS per component) and offset (to
+    ``tolerance_m``): (P, 4) int64 plane keys (negated, the same plane facing the other way), (T,) each
+    triangle's plane, and (T, 3) the triangles' unit normals."""
+    normals = triangle_unit_normals(triangles_m)
+    offsets = np.einsum("tk,tk->t", normals, triangles_m[:, 0])
+    keys = np.concatenate([np.round(normals * PLANE_NORMAL_STEPS), np.round(offsets / tolerance_m)[:, None]],
+                          axis=1).astype(np.int64)
+    planes, plane_of = np.unique(keys, axis=0, return_inverse=True)
+    return planes, plane_of.ravel(), normals
 
 
 def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
