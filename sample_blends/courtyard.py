@@ -512,14 +512,12 @@ def _rotation_to(direction: np.ndarray):
 
 
 def _blender_material(name: str, colour, texture, emission: float):
+    """The sample scenes' diffuse material (make_samples.material), emitting ``emission`` x the colour, with the
+    generated ``texture`` as its base colour."""
     import bpy
-    material = bpy.data.materials.new(name)
-    material.use_nodes = True
+    from make_samples import material as diffuse_material
+    material = diffuse_material(name, colour, tuple(emission * c for c in colour) if emission else None)
     bsdf = material.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
-    bsdf.inputs["Roughness"].default_value = 1.0
-    bsdf.inputs["Specular IOR Level"].default_value = 0.0
-    material.diffuse_color = (*colour, 1.0)
     if texture:
         pixels = texture_pixels(texture, colour)
         size = pixels.shape[0]
