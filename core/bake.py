@@ -155,7 +155,7 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     timer.lap("direct light")
     tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, source_samples,
                       clusters.sample_point, clusters.sample_normal)
-    sources = LinkSources.of(tree, clusters)
+    sources = LinkSources.of(tree, clusters, offset)
     links = build_links(sources, receivers.point, receivers.normal, receivers.element, caster, settings.opening,
                         settings.visibility_samples_per_edge, offset, covered, progress, cancelled)
     timer.lap("links")

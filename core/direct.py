@@ -41,7 +41,7 @@ class DirectLighting:
             front[:, 0] = (clusters.area_m2 / SAMPLES)[:, None]  # emitters shine from the front of their faces
             tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, front,
                               clusters.sample_point, clusters.sample_normal)
-            self.sources, self.exitance = LinkSources.of(tree, clusters), clusters.emitted_exitance
+            self.sources, self.exitance = LinkSources.of(tree, clusters, offset_m), clusters.emitted_exitance
             self.leaves, self.front_class = tree.leaf_of, tree.side_class[:, 0]
 
     @property

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .cluster_tree import NODE_SAMPLES, ClusterTree
-from .clusters import SAMPLES, FaceClusters
+from .clusters import FaceClusters
 from .formfactor import point_to_polygon, triangle_samples, visible_fraction
 from .geometry import lengths, tangent_frames, triangle_unit_normals
 from .progress import BakeCancelled, Progress, never_cancelled, no_progress
@@ -108,18 +108,19 @@ class Transfer:
 
 @dataclass
 class LinkSources:
-    """What links point at: the tree, and the elements' polygons and flat (n x SAMPLES) sample points and
-    normals."""
+    """What links point at: the tree, the elements' polygons, and (n x 2 x SAMPLES, 3) the shadow rays' targets:
+    each element sample lifted ``offset_m`` off its face on each side, in the tree's flat sample order
+    ((element x 2 + side) x SAMPLES + k)."""
 
     tree: ClusterTree
     polygon: np.ndarray
-    sample_point: np.ndarray
-    sample_normal: np.ndarray
+    side_point: np.ndarray
 
     @classmethod
-    def of(cls, tree: ClusterTree, clusters: FaceClusters) -> "LinkSources":
-        return cls(tree, clusters.polygon, clusters.sample_point.reshape(-1, 3),
-                   clusters.sample_normal.reshape(-1, 3))
+    def of(cls, tree: ClusterTree, clusters: FaceClusters, offset_m: float) -> "LinkSources":
+        lift = offset_m * np.array([1.0, -1.0])[None, :, None, None] * clusters.sample_normal[:, None]
+        side_point = clusters.sample_point[:, None] + lift                              # (n, 2, SAMPLES, 3)
+        return cls(tree, clusters.polygon, side_point.reshape(-1, 3))
 
 
 def build_links(sources: LinkSources, points: np.ndarray, normals: np.ndarray, own_element: np.ndarray,
@@ -327,8 +328,6 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
     tree = sources.tree
     pair, direction = np.nonzero(tree.class_exposed[node] > 0)          # only the classes a node has
     flat = tree.sample[node[pair], direction]                           # (m, K): (element x 2 + side) x S + k
-    element_side = flat // SAMPLES
-    sample = (element_side // 2) * SAMPLES + flat % SAMPLES
     target = tree.centroid[node[pair], direction].astype(np.float64)   # (m, K, 3): each part's centroid
     target_normal = tree.normal[node[pair], direction].astype(np.float64)
     area = np.broadcast_to((tree.class_exposed[node[pair], direction] / NODE_SAMPLES)[:, None], flat.shape)
@@ -356,10 +355,7 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
         if lift is not None:
             ray = delta.reshape(-1, 3)[facing]
             origin = lift[owner].origins(origin[:, None, :], (ray / lengths(ray)[:, None])[:, None, :])[:, 0]
-        seen_sample = sample.ravel()[facing]
-        lift_m = offset_m * (1.0 - 2.0 * (element_side.ravel()[facing] % 2))  # along the side's outward normal
-        end = sources.sample_point[seen_sample] + lift_m[:, None] * sources.sample_normal[seen_sample]
-        ray = end - origin
+        ray = sources.side_point[flat.ravel()[facing]] - origin
         length = np.maximum(lengths(ray), 1e-300)
         blocked = caster.occluded(origin, ray / length[:, None], length)
         weight[facing[blocked]] = 0.0
