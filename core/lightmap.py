@@ -143,11 +143,30 @@ def plan_texels(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, wid
 
 
 def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = None) -> np.ndarray:
-    """(c, 3) light of the c texels of chunk ``index``: depends on the solution, the plan and the index only."""
-    chunk = plan.chunk(index)
-    return _light_chunk(solution, plan.settings, plan.points[chunk], plan.sub_points[chunk], plan.sub_bary[chunk],
-                        plan.normals[chunk], plan.tri[chunk], plan.barycentric[chunk], chunk.start,
-                        timer or Timer())
+    """(c, 3) direct + indirect light of the c texels of chunk ``index``: depends on the solution, the plan and the
+    index only (the shadow and gather rays are seeded from the chunk's first texel, so no two chunks repeat each
+    other's samples). Light arrives by the shading normal (smooth shading, as Cycles bakes); the faces' own normals
+    find buried points and the receivers to interpolate from."""
+    chunk, settings, timer = plan.chunk(index), plan.settings, timer or Timer()
+    points, sub_points, sub_bary = plan.points[chunk], plan.sub_points[chunk], plan.sub_bary[chunk]
+    normals, tri, barycentric, first_texel = plan.normals[chunk], plan.tri[chunk], plan.barycentric[chunk], chunk.start
+    scene = solution.scene
+    c, q = sub_points.shape[:2]
+    shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
+    gather = settings.indirect == "gather"  # its rays bring the world's light
+    direct = _direct_light(solution, sub_points, shading, tri, barycentric, settings.subtexel_samples_per_edge,
+                           first_texel, world=not gather)
+    timer.lap("direct")
+    if gather:
+        light = _footprint_mean(scene, direct, tri, sub_bary) + final_gather(
+            solution, solution.caster, sub_points, scene.shading_normals(tri, barycentric),
+            settings.gather_samples_per_edge, solution.offset_m, settings.seed + first_texel,
+            face_normals=normals)
+    else:
+        indirect = _interpolated_indirect(solution, tri, barycentric, points, normals, sub_points)
+        light = _footprint_mean(scene, direct + indirect, tri, sub_bary)
+    timer.lap("indirect")
+    return light
 
 
 def finish_lightmap(solution, plan: TexelPlan, light: np.ndarray, seconds: dict | None = None) -> Lightmap:
@@ -166,30 +185,6 @@ def finish_lightmap(solution, plan: TexelPlan, light: np.ndarray, seconds: dict 
     moved_texels[plan.pixel[plan.moved]] = True
     return Lightmap(image.astype(np.float32), covered.reshape(height, width), moved_texels.reshape(height, width),
                     plan.texel_count, plan.settings.indirect, dict(seconds or {}))
-
-
-def _light_chunk(solution, settings, points, sub_points, sub_bary, normals, tri, barycentric, first_texel, timer):
-    """(c, 3) direct + indirect light of c consecutive texels at ``points`` (with ``sub_points`` over their
-    footprints), the first being texel ``first_texel`` of the page (the shadow and gather rays are seeded from
-    there, so no two steps repeat each other's samples). Light arrives by the shading normal (smooth shading, as
-    Cycles bakes); ``normals``, the faces' own, find buried points and the receivers to interpolate from."""
-    scene = solution.scene
-    c, q = sub_points.shape[:2]
-    shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
-    gather = settings.indirect == "gather"  # its rays bring the world's light
-    direct = _direct_light(solution, sub_points, shading, tri, barycentric, settings.subtexel_samples_per_edge,
-                           first_texel, world=not gather)
-    timer.lap("direct")
-    if gather:
-        light = _footprint_mean(scene, direct, tri, sub_bary) + final_gather(
-            solution, solution.caster, sub_points, scene.shading_normals(tri, barycentric),
-            settings.gather_samples_per_edge, solution.offset_m, settings.seed + first_texel,
-            face_normals=normals)
-    else:
-        indirect = _interpolated_indirect(solution, tri, barycentric, points, normals, sub_points)
-        light = _footprint_mean(scene, direct + indirect, tri, sub_bary)
-    timer.lap("indirect")
-    return light
 
 
 def _interpolated_indirect(solution, tri, barycentric, points, normals, sub_points) -> np.ndarray:
