@@ -237,9 +237,8 @@ def _classic_elements(mesh, state: RadiosityState) -> SolvedElements:
 
 def _form_factor_rows(settings, caster, patches, mesh, scene, offset):
     if settings.form_factors == "hemicube":
-        scene_to_mesh = np.full(len(scene.triangles), -1)
-        scene_to_mesh[mesh.triangle_scene] = np.arange(len(mesh.triangle_scene))
-        return HemicubeRows(caster, patches, mesh, settings.hemicube_resolution, offset, scene_to_mesh)
+        return HemicubeRows(caster, patches, mesh, settings.hemicube_resolution, offset,
+                            mesh.scene_to_mesh(len(scene.triangles)))
     return RayCastRows(caster, patches, settings.visibility_samples_per_edge, offset)
 
 

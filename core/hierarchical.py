@@ -79,8 +79,7 @@ def live_side_test(scene: Scene, mesh: ElementMesh, node_element: np.ndarray, al
     """``receives(triangle, barycentric, direction)`` for core.links.covered_share: whether rays along
     ``direction`` that hit scene triangles at those barycentrics land on a live side (``alive`` (n, 2)) of the
     element there (``node_element``: the element of each leaf of ``mesh``)."""
-    to_mesh = np.full(len(scene.triangles), -1)
-    to_mesh[mesh.triangle_scene] = np.arange(len(mesh.triangle_scene))
+    to_mesh = mesh.scene_to_mesh(len(scene.triangles))
 
     def receives(triangle: np.ndarray, barycentric: np.ndarray, direction: np.ndarray) -> np.ndarray:
         out = np.zeros(len(triangle), dtype=bool)

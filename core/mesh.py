@@ -90,6 +90,12 @@ class ElementMesh:
         """Node indices of the current elements."""
         return np.flatnonzero(self.node_children[:, 0] < 0)
 
+    def scene_to_mesh(self, scene_triangle_count: int) -> np.ndarray:
+        """(scene triangles,) the mesh triangle of each scene triangle, -1 for those not meshed (not solved)."""
+        index = np.full(scene_triangle_count, -1)
+        index[self.triangle_scene] = np.arange(len(self.triangle_scene))
+        return index
+
     def corners(self, nodes: np.ndarray) -> np.ndarray:
         """(len(nodes), 3, 3) world-space corners, m."""
         return np.einsum("nij,njk->nik", self.node_bary[nodes], self.triangles[self.node_triangle[nodes]])

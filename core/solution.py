@@ -257,6 +257,5 @@ class Solution:
     def _scene_to_mesh(self) -> np.ndarray:
         """Scene triangle -> mesh triangle (-1 if not solved), built once."""
         if self._to_mesh is None:
-            self._to_mesh = np.full(len(self.scene.triangles), -1)
-            self._to_mesh[self.mesh.triangle_scene] = np.arange(len(self.mesh.triangle_scene))
+            self._to_mesh = self.mesh.scene_to_mesh(len(self.scene.triangles))
         return self._to_mesh
