@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .geometry import triangle_areas
-from .scene import SceneError
+from .errors import SettingsError
 from .texels import rasterize
 
 OVERLAP_TOLERANCE = 0.01  # share of an object's texel centres that may fall on another object's
@@ -45,8 +45,8 @@ def unwrap(positions_m: np.ndarray, triangle_vertices: np.ndarray, texels_per_me
     pack.resolution = 0
     atlas.generate(xatlas.ChartOptions(), pack)
     if atlas.atlas_count != 1:
-        raise SceneError(f"The lightmap charts of one mesh need {atlas.atlas_count} atlases; lower the texel "
-                         "density.")
+        raise SettingsError(f"The lightmap charts of one mesh need {atlas.atlas_count} atlases; lower the "
+                            "texel density.")
     _, indices, uvs = atlas[0]
     # xatlas keeps the input's triangle order; pad the block so charts never touch a neighbouring block.
     width, height = atlas.width + 2 * padding_texels, atlas.height + 2 * padding_texels
@@ -58,15 +58,15 @@ def pack_blocks(sizes: np.ndarray, max_size: int) -> tuple[np.ndarray, np.ndarra
     """Shelf packing of (n, 2) block sizes (width, height, texels) into as many ``max_size`` pages as needed:
     (n, 2) lower-left offsets, (n,) page of each block, and the width and height every page shares. Blocks go
     tallest first, in rows as wide as the widest block or the square root of the total area (at most
-    ``max_size``); a block wider or taller than ``max_size`` raises SceneError."""
+    ``max_size``); a block wider or taller than ``max_size`` raises SettingsError."""
     sizes = np.asarray(sizes, dtype=np.int64).reshape(-1, 2)
     offsets, page = np.zeros_like(sizes), np.zeros(len(sizes), dtype=np.int64)
     if len(sizes) == 0:
         return offsets, page, 0, 0
     if sizes.max() > max_size:
         width, height = sizes[np.argmax(sizes.max(axis=1))]
-        raise SceneError(f"One mesh's lightmap charts need {width} x {height} texels, over the maximum atlas size "
-                         f"of {max_size}; lower the texel density or raise the maximum size.")
+        raise SettingsError(f"One mesh's lightmap charts need {width} x {height} texels, over the maximum atlas "
+                            f"size of {max_size}; lower the texel density or raise the maximum size.")
     row_width = min(max_size, max(int(sizes[:, 0].max()), int(np.ceil(np.sqrt((sizes[:, 0] * sizes[:, 1]).sum())))))
     x = y = row_height = width = height = current = 0
     for index in np.lexsort((np.arange(len(sizes)), -sizes[:, 1])):  # one step per object, not per texel
@@ -108,22 +108,22 @@ def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: li
     if texels_per_metre is not None:
         return _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre)
     if not resolution or resolution <= 0:
-        raise SceneError("Give the lightmap either a texel density or a resolution.")
+        raise SettingsError("Give the lightmap either a texel density or a resolution.")
     area_m2 = sum(float(triangle_areas(positions[triangles]).sum()) for positions, triangles in
                   (meshes[index] for index in mesh_of_object))
     density = np.sqrt(0.5 * resolution ** 2 / max(area_m2, 1e-12))
     while density * np.sqrt(area_m2) >= 1.0:
         try:
             layout = _layout(meshes, mesh_of_object, padding_texels, resolution, density)
-        except SceneError:
+        except SettingsError:
             layout = None
         if layout is not None and layout.page_count == 1:
             to_canvas = np.array([layout.width, layout.height]) / resolution
             return AtlasLayout([uv * to_canvas for uv in layout.corner_uv], layout.page, resolution, resolution,
                                density)
         density *= 0.9
-    raise SceneError(f"The objects do not fit a {resolution} x {resolution} lightmap with {padding_texels} texels "
-                     "of padding; raise the resolution.")
+    raise SettingsError(f"The objects do not fit a {resolution} x {resolution} lightmap with {padding_texels} "
+                        "texels of padding; raise the resolution.")
 
 
 def _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre) -> AtlasLayout:

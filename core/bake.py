@@ -22,13 +22,15 @@ from .clusters import cluster_pieces
 from .direct import DirectLighting
 from .hierarchical import (HierarchicalState, Receivers, live_side_test, node_deviation, node_radiosity,
                            sample_exposure, side_direct_irradiance, solve)
+from .errors import SettingsError
 from .lights import direct_irradiance
 from .links import OPENING, LinkSources, build_links, covered_share, refine_links
+from .memory import check_bake_memory, default_limit_gb
 from .mesh import build_mesh, bury, elements_of, node_reflectance
 from .nearfield import near_field_irradiance
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .raycast import RayCaster
-from .scene import MAX_REFLECTANCE, Scene, SceneError
+from .scene import MAX_REFLECTANCE, Scene
 from .shooting import HemicubeRows, Patches, RayCastRows
 from .solution import FRONT, SolvedElements, Solution
 from .solver import FormFactors, RadiosityState, patch_mean, solve_direct, solve_progressive
@@ -57,6 +59,8 @@ class BakeSettings:
     adaptive_passes, adaptive_threshold, min_element_size_m: adaptive meshing (classic solvers, core.adaptive).
     form_factor_memory_mb: memory for the classic element-to-patch form-factor matrix; over it, rows are
         recomputed when needed (memory then stays O(n + P^2)).
+    max_memory_gb: the bake is refused (core.memory.MemoryLimitError) before any large allocation when its
+        estimate is over this; 0: core.memory.default_limit_gb(), a share of the machine's memory.
     """
 
     patch_size_m: float = 0.5
@@ -75,6 +79,7 @@ class BakeSettings:
     form_factor_memory_mb: float = 2048.0
     seed: int = 0
     threads: int = 0
+    max_memory_gb: float = 0.0
 
     def __post_init__(self):
         positive = ("patch_size_m", "element_size_m", "opening", "visibility_samples_per_edge",
@@ -83,19 +88,19 @@ class BakeSettings:
         for name in positive:
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
-                raise SceneError(f"Setting '{name}' must be a positive number, got {value}.")
-        for name in ("adaptive_passes", "form_factor_memory_mb", "threads", "seed"):
+                raise SettingsError(f"Setting '{name}' must be a positive number, got {value}.")
+        for name in ("adaptive_passes", "form_factor_memory_mb", "threads", "seed", "max_memory_gb"):
             if getattr(self, name) < 0:
-                raise SceneError(f"Setting '{name}' must not be negative, got {getattr(self, name)}.")
+                raise SettingsError(f"Setting '{name}' must not be negative, got {getattr(self, name)}.")
         if self.form_factors not in ("raycast", "hemicube"):
-            raise SceneError(f"Setting 'form_factors' must be 'raycast' or 'hemicube', got '{self.form_factors}'.")
+            raise SettingsError(f"Setting 'form_factors' must be 'raycast' or 'hemicube', got '{self.form_factors}'.")
         if self.solver not in SOLVERS:
-            raise SceneError(f"Setting 'solver' must be one of {', '.join(SOLVERS)}, got '{self.solver}'.")
+            raise SettingsError(f"Setting 'solver' must be one of {', '.join(SOLVERS)}, got '{self.solver}'.")
         if self.form_factors == "hemicube" and self.solver == "hierarchical":
-            raise SceneError("Setting 'form_factors' 'hemicube' needs the 'progressive' or 'direct' solver.")
+            raise SettingsError("Setting 'form_factors' 'hemicube' needs the 'progressive' or 'direct' solver.")
         if self.element_size_m > self.patch_size_m and self.solver != "hierarchical":
-            raise SceneError(f"Setting 'element_size_m' ({self.element_size_m}) must not exceed "
-                             f"'patch_size_m' ({self.patch_size_m}).")
+            raise SettingsError(f"Setting 'element_size_m' ({self.element_size_m}) must not exceed "
+                                f"'patch_size_m' ({self.patch_size_m}).")
 
     def as_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
@@ -104,6 +109,9 @@ class BakeSettings:
 def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progress = no_progress,
          cancelled=never_cancelled) -> Solution:
     """Solve the scene's diffuse light; raises BakeCancelled if ``cancelled()`` turns True."""
+    emissive = scene.emitted_radiance.max(axis=1)[scene.material_index] > 0
+    check_bake_memory(scene.triangles[~scene.casts_only], scene.triangles[emissive], settings.element_size_m,
+                      settings.patch_size_m, settings.max_memory_gb or default_limit_gb())
     timer = Timer()
     offset = RAY_OFFSET_FRACTION * scene.size_m
     caster = RayCaster(scene.triangles, settings.threads or None)

@@ -31,7 +31,8 @@ from .geometry import duplicate_sides, triangle_unit_normals
 from .lights import direct_irradiance
 from .links import Links, Transfer
 from .mesh import ElementMesh
-from .progress import BakeCancelled, Progress, never_cancelled, no_progress
+from .errors import BakeCancelled
+from .progress import Progress, never_cancelled, no_progress
 from .raycast import RayCaster
 from .scene import Scene
 from .solver import ConvergenceStep

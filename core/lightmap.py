@@ -12,9 +12,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .gather import final_gather, gather_pays
-from .progress import BakeCancelled, Progress, Timer, never_cancelled, no_progress
+from .errors import BakeCancelled, SettingsError
+from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import triangle_areas
-from .scene import SceneError
 from .texels import (Texels, face_to_face_contact, inset, inside_closed_geometry, push_out_of_geometry, rasterize,
                      sample_points, subtexel_barycentrics)
 
@@ -43,10 +43,10 @@ class LightmapSettings:
 
     def __post_init__(self):
         if self.indirect not in INDIRECT_METHODS:
-            raise SceneError(f"Setting 'indirect' must be one of {INDIRECT_METHODS}, got '{self.indirect}'.")
+            raise SettingsError(f"Setting 'indirect' must be one of {INDIRECT_METHODS}, got '{self.indirect}'.")
         if min(self.gather_samples_per_edge, self.subtexel_samples_per_edge) < 1 or \
                 min(self.dilation_texels, self.seed) < 0:
-            raise SceneError("Lightmap settings: sample counts must be positive, dilation and seed not negative.")
+            raise SettingsError("Lightmap settings: sample counts must be positive, dilation and seed not negative.")
 
 
 @dataclass
@@ -100,7 +100,7 @@ class TexelPlan:
     def chunk(self, index: int) -> slice:
         """The texels of chunk ``index``."""
         if not 0 <= index < self.chunk_count:
-            raise SceneError(f"Lightmap chunk {index} does not exist: the page has {self.chunk_count} chunks.")
+            raise SettingsError(f"Lightmap chunk {index} does not exist: the page has {self.chunk_count} chunks.")
         start = index * self.texels_per_chunk
         return slice(start, min(start + self.texels_per_chunk, self.texel_count))
 
@@ -171,7 +171,7 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
 
 def finish_lightmap(solution, plan: TexelPlan, light: np.ndarray, seconds: dict | None = None) -> Lightmap:
     """The page from its texels' (m, 3) light (all chunks): contacts black, then dilated into the padding."""
-    light = solution.black_stays_black(light, plan.tri)
+    light = solution.output_light(light, plan.tri)
     # Resting on another face, no light gets there; texels pushed out to the visible floor beside a box keep that
     # light, so bilinear filtering shows no dark rim around the box.
     light[plan.contact & ~plan.moved] = 0.0

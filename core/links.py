@@ -38,7 +38,8 @@ from .cluster_tree import NODE_SAMPLES, ClusterTree
 from .clusters import FaceClusters
 from .formfactor import point_to_polygon, triangle_samples, visible_fraction
 from .geometry import lengths, tangent_frames, triangle_unit_normals
-from .progress import BakeCancelled, Progress, never_cancelled, no_progress
+from .errors import BakeCancelled
+from .progress import Progress, never_cancelled, no_progress
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 

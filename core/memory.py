@@ -18,7 +18,7 @@ import numpy as np
 
 from .clusters import SMALL_PIECE, normal_bins
 from .geometry import triangle_unit_normals
-from .scene import SceneError
+from .errors import SceneError
 
 DEFAULT_SHARE = 0.75
 GIB = 2 ** 30
@@ -90,7 +90,7 @@ class MemoryEstimate:
 def piece_counts(triangles_m: np.ndarray, element_size_m: float) -> np.ndarray:
     """(T,) pieces each triangle is cut into at the element size (core.mesh.build_mesh: k x k)."""
     edges = np.linalg.norm(triangles_m - np.roll(triangles_m, 1, axis=1), axis=2).max(axis=1)
-    return np.maximum(1, np.ceil(edges / element_size_m - 1e-9)).astype(np.int64) ** 2
+    return np.clip(np.ceil(edges / element_size_m - 1e-9), 1, 1e9).astype(np.int64) ** 2
 
 
 def element_count(triangles_m: np.ndarray, element_size_m: float) -> int:
@@ -138,3 +138,18 @@ def fit_to_memory(triangles_m: np.ndarray, element_size_m: float, limit_gb: floa
                 "(--max-memory-gb), lower the quality or the lightmap's texel density, or set objects to "
                 "'Shadow Only'.")
         size *= COARSENING
+
+
+def check_bake_memory(receivers_m: np.ndarray, emitters_m: np.ndarray, element_size_m: float,
+                      patch_size_m: float, limit_gb: float) -> MemoryEstimate:
+    """The estimate of a core bake of these receiving and emitting (T, 3, 3) triangles; MemoryLimitError naming
+    the setting to change when it is over ``limit_gb`` (a core caller that did not fit its settings first)."""
+    estimate = estimate_bake(receivers_m, element_size_m)
+    emitter_pieces = int(piece_counts(emitters_m, patch_size_m).sum())
+    estimate = MemoryEstimate(estimate.steps, estimate.persistent + BYTES_PER_PIECE * emitter_pieces)
+    if estimate.peak_bytes > limit_gb * GIB:
+        raise MemoryLimitError(
+            f"The bake needs about {estimate.peak_bytes / GIB:.3g} GiB ({estimate.describe()}) but the memory limit "
+            f"is {limit_gb:g} GiB: raise 'element_size_m' (now {element_size_m:g} m) or 'patch_size_m' (now "
+            f"{patch_size_m:g} m), or 'max_memory_gb'.")
+    return estimate

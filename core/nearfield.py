@@ -26,7 +26,8 @@ import numpy as np
 
 from .formfactor import point_to_polygon, point_to_triangle_with_visibility, triangle_samples
 from .mesh import Elements
-from .progress import BakeCancelled, Progress, never_cancelled, no_progress
+from .errors import BakeCancelled
+from .progress import Progress, never_cancelled, no_progress
 from .ragged import concatenated_ranges
 from .raycast import RayCaster
 from .shooting import Patches

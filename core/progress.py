@@ -12,10 +12,6 @@ from typing import Callable
 Progress = Callable[[float, str], None]
 
 
-class BakeCancelled(Exception):
-    """Raised inside the core when ``cancelled()`` returned True; nothing has been written anywhere."""
-
-
 def no_progress(fraction: float, message: str) -> None:
     """Default progress callback: report nothing."""
 

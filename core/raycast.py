@@ -1,7 +1,9 @@
 """Batched ray queries through Embree (embreex), spread over the machine's cores.
 
 embreex releases the GIL inside ``run``, so a thread pool over chunks of rays uses every core.
-All arrays are numpy; there is never a Python loop per ray.
+All arrays are numpy; there is never a Python loop per ray. Every scene shares one Embree device per process:
+a device per scene (embreex's default) starts threads of its own, and a process holding a thousand scenes (a
+farm worker, a fuzzer) then fails to start more and crashes.
 """
 from __future__ import annotations
 
@@ -9,10 +11,18 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from embreex import rtcore_scene
+from embreex import rtcore, rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
 CHUNK_RAYS = 65536
+_shared = {}
+
+
+def _device():
+    """The process's one Embree device, made on first use."""
+    if "device" not in _shared:
+        _shared["device"] = rtcore.EmbreeDevice()
+    return _shared["device"]
 
 
 class RayCaster:
@@ -21,7 +31,7 @@ class RayCaster:
 
     def __init__(self, triangles: np.ndarray, threads: int | None = None):
         self._triangles = np.ascontiguousarray(triangles, dtype=np.float32)
-        self._scene = rtcore_scene.EmbreeScene()
+        self._scene = rtcore_scene.EmbreeScene(_device())
         TriangleMesh(self._scene, self._triangles)
         self._threads = max(1, threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None

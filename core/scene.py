@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .errors import SceneError
 from .geometry import lengths, triangle_areas, triangle_unit_normals
 
 RGB = tuple[float, float, float]
@@ -23,10 +24,9 @@ TERMINATOR_GEOMETRY_OFFSET = 0.1  # Blender's default for an object's Shadow Ter
 # Pure white (reflectance 1) is accepted, as in Cycles; the solve keeps elements just below it, so that light
 # bouncing between white walls stays finite (the bake says so in its warnings).
 MAX_REFLECTANCE = 0.99
-
-
-class SceneError(ValueError):
-    """Bad input to the radiosity core; the message names the object, material or light at fault."""
+# The most a light's power (W), a sun's strength (W m^-2) or an emitted or world radiance (W m^-2 sr^-1) may be,
+# per channel: far beyond any real lamp, and far from where float32 light overflows in the solve's sums.
+MAX_EMISSION = 1e12
 
 
 @dataclass(frozen=True)
@@ -157,7 +157,7 @@ class Scene:
     triangle_source: np.ndarray = field(init=False)
 
     def __post_init__(self):
-        self.triangles = np.asarray(self.triangles, dtype=np.float64).reshape(-1, 3, 3)
+        self.triangles = _per_triangle(self.triangles, "triangles", (3, 3), np.float64)
         count = len(self.triangles)
         self.material_index = np.asarray(self.material_index, dtype=np.int64).reshape(-1)
         if self.object_index is None:
@@ -170,7 +170,7 @@ class Scene:
         self.casts_only = np.asarray(self.casts_only, dtype=bool).reshape(-1)
         if self.triangle_uv is None:
             self.triangle_uv = np.zeros((count, 3, 2))
-        self.triangle_uv = np.asarray(self.triangle_uv, dtype=np.float64).reshape(-1, 3, 2)
+        self.triangle_uv = _per_triangle(self.triangle_uv, "triangle_uv", (3, 2), np.float64)
         self.corner_normals = _unit_corner_normals(self.triangles, self.corner_normals)
         if self.terminator_offset is None:
             self.terminator_offset = np.full(count, TERMINATOR_GEOMETRY_OFFSET)
@@ -233,6 +233,17 @@ class Scene:
         return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
 
 
+def _per_triangle(values, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+    """``values`` as a (T, *shape) array; SceneError if they are not numbers or do not make whole triangles."""
+    try:
+        array = np.asarray(values, dtype=dtype)
+    except (TypeError, ValueError) as error:
+        raise SceneError(f"{name} must be an array of numbers ({error}).") from None
+    if array.size % int(np.prod(shape)):
+        raise SceneError(f"{name} must have shape (T, {', '.join(map(str, shape))}), got {array.shape}.")
+    return array.reshape(-1, *shape)
+
+
 def _unit_corner_normals(triangles: np.ndarray, corner_normals) -> np.ndarray:
     """(T, 3, 3) unit corner normals; the triangle's normal for corners without a usable one."""
     flat = np.repeat(triangle_unit_normals(triangles)[:, None, :], 3, axis=1)
@@ -266,14 +277,17 @@ def _validate(scene: Scene) -> None:
     if bad.any():
         raise SceneError(f"Object '{_object_name(scene, int(np.flatnonzero(bad)[0]))}' has NaN or infinite "
                          f"vertex coordinates ({int(bad.sum())} triangles).")
-    if scene.material_index.min() < 0 or scene.material_index.max() >= len(scene.materials):
-        raise SceneError(f"A triangle refers to material {int(scene.material_index.max())} but the scene has "
-                         f"{len(scene.materials)} materials.")
+    wrong = (scene.material_index < 0) | (scene.material_index >= len(scene.materials))
+    if wrong.any():
+        index = int(np.flatnonzero(wrong)[0])
+        raise SceneError(f"Object '{_object_name(scene, index)}': a triangle refers to material "
+                         f"{int(scene.material_index[index])} but the scene has materials 0 to "
+                         f"{len(scene.materials) - 1}.")
     for material in scene.materials:
         _check_material(material)
     for light in scene.lights:
         _check_light(light)
-    _check_rgb(scene.world.radiance, "World background", "radiance", upper=None)
+    _check_rgb(scene.world.radiance, "World background", "radiance", upper=MAX_EMISSION)
     has_emitter = any(max(scene.materials[m].emitted_radiance) > 0 for m in np.unique(scene.material_index))
     has_light = any(_light_power(light) > 0 for light in scene.lights) or max(scene.world.radiance) > 0
     if not (has_emitter or has_light):
@@ -286,13 +300,14 @@ def _object_name(scene: Scene, triangle: int) -> str:
 
 def _check_rgb(values, owner: str, quantity: str, upper: float | None) -> None:
     values = np.asarray(values, dtype=np.float64)
+    shown = f"({', '.join(f'{v:g}' for v in values.ravel())})"
     if values.shape != (3,) or not np.isfinite(values).all():
-        raise SceneError(f"{owner}: {quantity} must be three finite numbers, got {tuple(values.ravel())}.")
+        raise SceneError(f"{owner}: {quantity} must be three finite numbers, got {shown}.")
     if (values < 0).any():
-        raise SceneError(f"{owner}: {quantity} must not be negative, got {tuple(values)}.")
+        raise SceneError(f"{owner}: {quantity} must not be negative, got {shown}.")
     if upper is not None and (values > upper).any():
-        raise SceneError(f"{owner}: {quantity} ({', '.join(f'{v:g}' for v in values)}) must not exceed {upper:g} "
-                         "(a surface cannot reflect more light than it receives).")
+        reason = "a surface cannot reflect more light than it receives" if upper == 1.0 else "unbounded emission"
+        raise SceneError(f"{owner}: {quantity} {shown} must not exceed {upper:g} ({reason}).")
 
 
 def _check_material(material: Material) -> None:
@@ -303,7 +318,7 @@ def _check_material(material: Material) -> None:
             raise SceneError(f"Material '{material.name}': its base colour texture has values outside [0, 1] "
                              f"(from {pixels.min():.3g} to {pixels.max():.3g}); a surface cannot reflect more light "
                              "than it receives.")
-    _check_rgb(material.emitted_radiance, f"Material '{material.name}'", "emitted radiance", upper=None)
+    _check_rgb(material.emitted_radiance, f"Material '{material.name}'", "emitted radiance", upper=MAX_EMISSION)
 
 
 def _light_power(light) -> float:
@@ -314,8 +329,9 @@ def _check_light(light) -> None:
     owner = f"Light '{light.name}'"
     _check_rgb(light.color, owner, "colour", upper=None)
     power = light.strength_w_m2 if isinstance(light, SunLight) else light.power_w
-    if not np.isfinite(power) or power < 0:
-        raise SceneError(f"{owner}: power / strength must be a finite number >= 0, got {power}.")
+    if not (np.isfinite(power) and 0 <= power * max(light.color) <= MAX_EMISSION):
+        raise SceneError(f"{owner}: power / strength x colour must be a finite number from 0 to {MAX_EMISSION:g}, "
+                         f"got {float(power):g}.")
     vectors = [getattr(light, name) for name in ("position", "direction") if hasattr(light, name)]
     if not all(np.isfinite(np.asarray(v, dtype=np.float64)).all() for v in vectors):
         raise SceneError(f"{owner}: position and direction must be finite.")
@@ -326,6 +342,6 @@ def _check_light(light) -> None:
             raise SceneError(f"{owner}: shape must be one of {AREA_SHAPES}, got '{light.shape}'.")
         sizes = [light.size_m] + ([light.size_y_m] if light.size_y_m is not None else [])
         if any(not np.isfinite(s) or s <= 0 for s in sizes):
-            raise SceneError(f"{owner}: size must be positive, got {sizes}.")
+            raise SceneError(f"{owner}: size must be positive, got {', '.join(f'{float(s):g}' for s in sizes)}.")
     if isinstance(light, SpotLight) and not (0 < light.spot_size_rad <= np.pi and 0 <= light.spot_blend <= 1):
         raise SceneError(f"{owner}: spot size must be in (0, pi] and blend in [0, 1].")

@@ -123,7 +123,7 @@ class Solution:
             shading = self.scene.shading_normals(scene_triangle, barycentric)
             light = self.direct_light(points, shading, scene_triangle, barycentric) + \
                 self.indirect_light(points, normals, scene_triangle, barycentric)
-        return self.black_stays_black(light, scene_triangle)
+        return self.output_light(light, scene_triangle)
 
     def _uncovered(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
         """Barycentrics of the points, those inside closed geometry (a decimated floor's corner under a wall)
@@ -145,11 +145,12 @@ class Solution:
             inside = inside[still]
         return out
 
-    def black_stays_black(self, light: np.ndarray, scene_triangle: np.ndarray) -> np.ndarray:
-        """Light with 0 in the channels where the triangle's reflectance is 0: Cycles' Diffuse bake without Color
-        divides by the albedo, so a black surface bakes black."""
+    def output_light(self, light: np.ndarray, scene_triangle: np.ndarray) -> np.ndarray:
+        """Light as outputs store it: 0 in the channels where the triangle's reflectance is 0 (Cycles' Diffuse
+        bake without Color divides by the albedo, so a black surface bakes black), and never below 0 (the round-off
+        of a solve and of interpolation weights, -1e-68 say, is no light)."""
         reflectance = self.scene.reflectance[self.scene.material_index[np.asarray(scene_triangle, dtype=np.int64)]]
-        return np.where(reflectance == 0, 0.0, light)
+        return np.where(reflectance == 0, 0.0, np.maximum(light, 0.0))
 
     def direct_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
                      barycentric: np.ndarray, samples_per_edge: int | None = None,

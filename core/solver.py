@@ -27,8 +27,8 @@ from typing import Callable
 import numpy as np
 
 from .mesh import Elements
-from .progress import BakeCancelled, Progress, never_cancelled, no_progress
-from .scene import SceneError
+from .errors import BakeCancelled, SceneError
+from .progress import Progress, never_cancelled, no_progress
 from .shooting import FormFactorMethod, Patches, row_blocks
 
 

@@ -54,7 +54,8 @@ def bake_settings(user: UserSettings, scene_size_m: float):
                                                      user.residual_threshold, user.light_samples_per_edge)
     return BakeSettings(element_size_m=element, patch_size_m=max(patch, element), adaptive_passes=passes,
                         residual_threshold=residual, light_samples_per_edge=samples, form_factors=user.form_factors,
-                        adaptive_threshold=ADAPTIVE_THRESHOLD, min_element_size_m=element / 4, seed=user.seed)
+                        adaptive_threshold=ADAPTIVE_THRESHOLD, min_element_size_m=element / 4, seed=user.seed,
+                        max_memory_gb=user.max_memory_gb)
 
 
 def lightmap_settings(user: UserSettings, scene_size_m: float):

@@ -3,11 +3,11 @@ plane give their exact light, and a block standing on a floor leaks no light und
 import numpy as np
 import pytest
 
-from core import BakeSettings, Material, Scene, SceneError, SunLight, World, bake
+from core import BakeSettings, Material, Scene, SceneError, SettingsError, SunLight, World, bake
 from core.atlas import layout_atlas, pack_blocks, pages_without_overlap
 import core.lightmap
 from core.lightmap import LightmapSettings, bake_lightmap, dilate, finish_lightmap, light_chunk, plan_texels
-from core.progress import BakeCancelled
+from core.errors import BakeCancelled
 from core.geometry import triangle_unit_normals
 from core.gather import mean_free_path_m
 from core.raycast import RayCaster
@@ -68,7 +68,7 @@ def test_objects_on_existing_uv_maps_share_a_page_only_where_their_texels_are_fr
 
 
 def test_a_block_over_the_maximum_size_is_refused():
-    with pytest.raises(SceneError, match="over the maximum atlas size of 32"):
+    with pytest.raises(SettingsError, match="over the maximum atlas size of 32"):
         pack_blocks(np.array([[10, 10], [40, 8]]), 32)
 
 

@@ -1,9 +1,12 @@
-"""Every bad input raises SceneError with a message naming the offending object, material, light or setting."""
+"""Every bad input raises SceneError (a bad setting: SettingsError) with a message naming the offending object,
+material, light or setting, in plain numbers."""
 import numpy as np
 import pytest
 
-from core import (AreaLight, BakeCancelled, BakeSettings, Material, PointLight, Scene, SceneError, SpotLight,
-                  SunLight, World, bake)
+from core import (AreaLight, BakeCancelled, BakeSettings, Material, PointLight, Scene, SceneError, SettingsError,
+                  SpotLight, SunLight, World, bake)
+from core.memory import MemoryLimitError
+from core.scene import MAX_EMISSION
 from shapes import quad
 
 FLOOR = quad((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0))
@@ -40,6 +43,40 @@ def test_shadow_terminator_offset_outside_zero_one_names_the_object(offset):
 def test_reflectance_outside_zero_one_names_the_material(reflectance):
     with pytest.raises(SceneError, match="Material 'Brick'.*reflectance"):
         make(materials=[Material("Brick", reflectance)])
+
+
+@pytest.mark.parametrize("make_bad, match", [
+    (lambda: make(materials=[Material("Glow", (0.5,) * 3, (np.inf, 0.0, 0.0))]), r"Material 'Glow'.*\(inf, 0, 0\)"),
+    (lambda: make(materials=[Material("Glow", (0.5,) * 3, (2 * MAX_EMISSION, 0.0, 0.0))]),
+     "Material 'Glow'.*unbounded"),
+    (lambda: make(lights=[PointLight("Bulb", (0, 0, 1), 1e30)]), "Light 'Bulb'.*1e[+]30"),
+    (lambda: make(lights=[SunLight("Sun", (0, 0, -1), np.inf)]), "Light 'Sun'.*inf"),
+    (lambda: make(world=World((0.0, 0.0, 1e300))), "World background.*unbounded"),
+])
+def test_unbounded_emission_is_refused_by_name(make_bad, match):
+    """Beyond MAX_EMISSION float32 light could overflow to inf and reach a file."""
+    with pytest.raises(SceneError, match=match):
+        make_bad()
+
+
+def test_messages_print_plain_numbers():
+    with pytest.raises(SceneError) as caught:
+        make(materials=[Material("Brick", (np.float64(1.5), 0.5, 0.5))])
+    assert "np.float64" not in str(caught.value) and "(1.5, 0.5, 0.5)" in str(caught.value)
+
+
+def test_material_index_below_zero_names_the_object_and_index():
+    with pytest.raises(SceneError, match="Object 'Plane': a triangle refers to material -1"):
+        Scene(FLOOR, [0, -1], [Material("Floor")], lights=[LAMP], object_names=["Plane"])
+
+
+@pytest.mark.parametrize("name, value", [("triangles", np.zeros((2, 3, 2))), ("triangle_uv", np.zeros((2, 3, 3))),
+                                         ("triangles", [["a", "b", "c"]])])
+def test_wrongly_shaped_arrays_are_scene_errors(name, value):
+    arguments = {"triangles": FLOOR, "material_index": [0, 0], "materials": [Material("Floor")], "lights": [LAMP]}
+    arguments[name] = value
+    with pytest.raises(SceneError, match=name):
+        Scene(**arguments)
 
 
 def test_negative_emission_names_the_material():
@@ -102,7 +139,7 @@ def test_only_degenerate_triangles_is_nothing_to_bake():
                                             ("residual_threshold", float("nan")), ("adaptive_passes", -1), ("seed", -1),
                                             ("form_factors", "radiant"), ("solver", "magic")])
 def test_bad_setting_names_the_setting(setting, value):
-    with pytest.raises(SceneError, match=f"'{setting}'"):
+    with pytest.raises(SettingsError, match=f"'{setting}'"):
         BakeSettings(**{setting: value})
 
 
@@ -129,3 +166,13 @@ def test_cancelled_bake_raises_bake_cancelled():
     with pytest.raises(BakeCancelled):
         bake(make(room), BakeSettings(patch_size_m=0.25, element_size_m=0.125, residual_threshold=1e-6),
              cancelled=cancelled)
+
+
+@pytest.mark.parametrize("setting", ["element_size_m", "patch_size_m"])
+def test_a_bake_over_the_memory_limit_is_refused_before_allocating(setting):
+    """Micrometre elements (or emitter pieces) on a 1 m^2 floor are 1e12 pieces: refused by the estimate, naming
+    the setting, not by numpy running out of memory."""
+    glow = Material("Glow", (0.5, 0.5, 0.5), (1.0, 1.0, 1.0))
+    scene = make(materials=[glow])
+    with pytest.raises(MemoryLimitError, match=setting):
+        bake(scene, BakeSettings(**{setting: 1e-6, "solver": "hierarchical", "max_memory_gb": 8.0}))
