@@ -9,31 +9,29 @@ format is a versioned pickle: load only files you or your farm wrote.
 from __future__ import annotations
 
 import copy
-import os
 import pickle
 
-from .scene import SceneError
+from .errors import SceneError
 from .solution import Solution
+from .staged_files import StagedFiles
 
 FORMAT = "radiosity-solution"
 VERSION = 1
 
 
 def save_solution(solution: Solution, path: str) -> None:
-    """Write ``solution`` to ``path`` atomically: a file written in full replaces the old one, or nothing
-    changes."""
+    """Write ``solution`` to ``path`` atomically (core.staged_files): a file written in full replaces the old one,
+    or nothing changes and OutputError names the file."""
     saved = copy.copy(solution)
     saved.state = None
-    partial = f"{path}.partial"
-    try:
-        with open(partial, "wb") as file:
+
+    def write(temporary: str) -> None:
+        with open(temporary, "wb") as file:
             pickle.dump({"format": FORMAT, "version": VERSION, "solution": saved}, file,
                         protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(partial, path)
-    except OSError as error:
-        if os.path.exists(partial):
-            os.remove(partial)
-        raise SceneError(f"Cannot write the solution to '{path}': {error.strerror or error}.") from error
+    with StagedFiles() as staged:
+        staged.stage(path, write)
+        staged.commit()
 
 
 def load_solution(path: str) -> Solution:

@@ -6,12 +6,13 @@ make it "shadow only" (casts shadows, is not baked). Light and emission conventi
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
 
-from ..core import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
+from ..core import AreaLight, Material, PointLight, Scene, SceneError, SpotLight, SunLight, World
 from ..core.scene import TERMINATOR_GEOMETRY_OFFSET
 from ..core.bsdf import principled_reflectance
 from ..core.texture import ReflectanceTexture
@@ -87,6 +88,10 @@ def export_scene(context) -> Export:
         count = len(loops)
         name = original.name if not instance.is_instance else f"{original.name} (instance of {owner.name})"
         writable = not instance.is_instance and original.type == "MESH" and mode == "BAKE"
+        if writable and _linked(original):
+            writable = False
+            materials.warnings.append(f"Object '{original.name}' is linked from {_linked(original)}: it lights the "
+                                      "scene but its bake cannot be saved in this file (make it local to bake it).")
         objects.append(ExportedObject(
             name=original.name, mesh_name=original.data.name if original.type == "MESH" else "",
             first_triangle=sum(len(t) for t in columns["triangles"]), triangle_count=count, corner_loops=loops,
@@ -96,6 +101,9 @@ def export_scene(context) -> Export:
                     terminator_offset=np.full(count, _terminator_offset(original)))
         for key, value in part.items():
             columns[key].append(value)
+    materials.warnings += [f"Library '{library.filepath}' is missing: the objects linked from it are not in the "
+                           "bake (relink it: File > External Data > Find Missing Files)." for library in
+                           bpy.data.libraries if not os.path.isfile(bpy.path.abspath(library.filepath))]
     if objects:
         _add_emitter_backs(columns, names, materials.list)
     nothing = {"triangles": np.zeros((0, 3, 3)), "material_index": np.zeros(0, dtype=int)}
@@ -120,6 +128,17 @@ def _add_emitter_backs(columns: dict, names: list[str], materials: list[Material
     flipped["object_index"] = np.full(int(back.sum()), len(names) - 1)
     for key, value in flipped.items():
         columns[key].append(value)
+
+
+def _linked(obj) -> str:
+    """Where an object's own data comes from when this file cannot save changes to it (a linked library, or a
+    library override of its mesh); "" when it is local."""
+    for block in (obj, obj.data):
+        if block.library is not None:
+            return f"the library '{block.library.filepath}'"
+        if block.override_library is not None and block.override_library.reference.library is not None:
+            return f"the library '{block.override_library.reference.library.filepath}' (a library override)"
+    return ""
 
 
 def _terminator_offset(obj) -> float:
@@ -190,7 +209,7 @@ def world_corner_normals(mesh, matrix: np.ndarray) -> np.ndarray:
     normals as Blender computes them), through the inverse transpose of the object matrix."""
     normals = np.empty(len(mesh.loops) * 3, dtype=np.float32)
     mesh.corner_normals.foreach_get("vector", normals)
-    world = normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(matrix[:3, :3])
+    world = normals.reshape(-1, 3).astype(np.float64) @ np.linalg.pinv(matrix[:3, :3])  # a 0 scale flattens
     return world / np.maximum(np.linalg.norm(world, axis=1, keepdims=True), 1e-12)
 
 
@@ -301,6 +320,10 @@ def _colour(socket, material_name: str, warnings: list[str]):
         return tuple(socket.default_value[:3]), None
     source = socket.links[0].from_node
     if source.type == "TEX_IMAGE" and source.image is not None:
+        if not source.image.has_data and tuple(source.image.size) == (0, 0):
+            raise SceneError(f"Material '{material_name}': the image '{source.image.name}' cannot be read (file "
+                             f"'{source.image.filepath}'; missing or not an image): fix its path (File > External "
+                             "Data > Find Missing Files) or remove the Image Texture node.")
         pixels = image_pixels(source.image)
         mean = tuple(pixels.reshape(-1, 3).mean(axis=0))
         vector = source.inputs["Vector"]

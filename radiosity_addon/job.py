@@ -14,7 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from ..core import SceneError
+from ..core.geometry import triangle_areas
 from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory
+from ..core.staged_files import StagedFiles
 from .export import Export, export_scene
 from .lightmaps import LightmapOptions, LightmapPlan, plan_lightmap, write_lightmap
 from .presets import UserSettings, bake_settings, lightmap_settings
@@ -67,11 +69,23 @@ def prepare(context, user: UserSettings, outputs: Outputs) -> Job:
     if outputs.vertex_colors:
         check_attribute_name_free(export, outputs.attribute)
     job = Job(export, settings, outputs)
+    limit_gb = user.max_memory_gb or default_limit_gb()
     if outputs.lightmaps:
         job.lightmap_settings, density = lightmap_settings(user, export.scene.size_m)
+        _check_texel_density(job, outputs.lightmap, density, limit_gb)
         job.lightmap_plan = plan_lightmap(context, export, outputs.lightmap, density)
-    _fit_to_memory(job, user.max_memory_gb or default_limit_gb())
+    _fit_to_memory(job, limit_gb)
     return job
+
+
+def _check_texel_density(job: Job, options: LightmapOptions, density: float, limit_gb: float) -> None:
+    """Refuse, before the atlas is unwrapped, a texel density whose texels alone would not fit the memory limit
+    (the texels the surfaces cover at that density, twice that in the pages' images)."""
+    if options.resolution:
+        return
+    receivers = job.export.scene.triangles[~job.export.scene.casts_only]
+    covered = int(min(triangle_areas(receivers).sum() * (options.texels_per_metre or density) ** 2, 2 ** 60))
+    fit_to_memory(receivers, job.settings.element_size_m, limit_gb, min(covered, options.max_size ** 2), 2 * covered)
 
 
 def _fit_to_memory(job: Job, limit_gb: float) -> None:
@@ -125,14 +139,23 @@ def _solve(job: Job, progress, cancelled) -> None:
                          for scene_triangle, corner_uv in plan.page_triangles]
 
 
-def apply(job: Job) -> dict:
-    """Write the outputs; returns the report (REPORT.json's contract, docs/design in the README)."""
+def write_outputs(job: Job) -> dict:
+    """``apply`` with its files moved into place at once: for callers that write nothing else (the panel)."""
+    with StagedFiles() as staged:
+        report = apply(job, staged)
+        staged.commit()
+    return report
+
+
+def apply(job: Job, staged: StagedFiles) -> dict:
+    """Write the outputs into the .blend and stage their files in ``staged`` (the caller commits them); returns
+    the report (REPORT.json's contract, docs/design in the README)."""
     objects, entries = [], []
     warnings = list(job.export.warnings) + job.warnings + list(job.solution.warnings)
     if job.lightmap_plan is not None:  # first: its files are what can still fail, before the .blend changes
-        entries = write_lightmap(job.lightmap_plan, [page.light for page in job.lightmaps], _metadata(job),
-                                 job.outputs.lightmap_folder)
-        warnings += job.lightmap_plan.warnings
+        entries, more = write_lightmap(job.lightmap_plan, [page.light for page in job.lightmaps], _metadata(job),
+                                       job.outputs.lightmap_folder, staged)
+        warnings += job.lightmap_plan.warnings + more
     if job.outputs.vertex_colors:
         objects, more = write_vertex_colors(job.export, job.solution, job.outputs.attribute)
         warnings += more

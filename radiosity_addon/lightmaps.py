@@ -20,9 +20,11 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..core import SceneError
+from ..core import OutputError, SceneError
 from ..core.atlas import AtlasLayout, layout_atlas, overlapping_share, pages_without_overlap
 from ..core.geometry import triangle_areas
+from ..core.image_file import HALF_MAX, check_image, write_exr, write_png
+from ..core.staged_files import StagedFiles
 from .export import Export, ExportedObject, loop_triangles, world_positions
 
 OWNED_UV = "radiosity_lightmap_uv"
@@ -318,11 +320,15 @@ def _check_image_name_free(name: str) -> None:
                          "lightmap image name.")
 
 
-def write_lightmap(plan: LightmapPlan, lights: list[np.ndarray], metadata: dict, folder: str) -> list[dict]:
-    """UV maps on the meshes, one EXR file and Blender image per page; returns the report's per-object entries."""
+def write_lightmap(plan: LightmapPlan, lights: list[np.ndarray], metadata: dict, folder: str,
+                   staged: StagedFiles) -> tuple[list[dict], list[str]]:
+    """UV maps on the meshes, one EXR file and Blender image per page; returns the report's per-object entries and
+    warnings. The files are staged in ``staged`` (they replace earlier ones when it is committed); the images
+    read them from their final paths after that."""
     options, layout = plan.options, plan.layout
     # Every file first: writing may fail, and nothing in the .blend has changed yet.
-    paths = [_write_files(options, name, light, metadata, folder) for name, light in zip(plan.image_names, lights)]
+    files = [_write_files(options, name, light, metadata, folder, staged) for name, light in
+             zip(plan.image_names, lights)]
     for name, (loops, corner_uv) in plan.mesh_uvs.items():
         _write_uv_map(bpy.data.meshes[name], options.uv_map, loops, corner_uv)
         bpy.data.meshes[name][OWNED_UV] = options.uv_map
@@ -330,19 +336,21 @@ def write_lightmap(plan: LightmapPlan, lights: list[np.ndarray], metadata: dict,
         obj = bpy.data.objects[item.name]
         _set_property(obj, PAGE_PROPERTY, int(page) if layout.page_count > 1 else None)
         _set_property(obj, OFFSET_PROPERTY, None if offset is None else offset.tolist())
-    images = [_load_image(name, path, options.image_name, page, pack=not folder) for page, (name, path) in
-              enumerate(zip(plan.image_names, paths))]
+    images = [_load_image(name, file, options.image_name, page) for page, (name, file) in
+              enumerate(zip(plan.image_names, files))]
     _remove_stale_pages(options.image_name, layout.page_count)
     entries = []
     for item, page in zip(plan.objects, layout.page):
-        image, path = images[page], paths[page]
+        image, path = images[page], files[page].path
         entry = {"name": item.name, "uv_map": options.uv_map, "color_attribute": None,
                  "image": f"(packed) {image.name}" if image.packed_file else path,
                  "resolution": [layout.width, layout.height]}
         if options.png_exposure is not None and folder:
             entry["png"] = os.path.splitext(path)[0] + ".png"
         entries.append(entry)
-    return entries
+    warnings = [f"Lightmap image '{file.name}': its light reaches above {HALF_MAX:g}, more than half floats hold; "
+                "written as 32-bit floats." for file in files if file.widened]
+    return entries, warnings
 
 
 def _set_property(obj, name: str, value) -> None:
@@ -372,42 +380,62 @@ def _write_uv_map(mesh, name: str, corner_loops: np.ndarray, corner_uv: np.ndarr
     layer.data.foreach_set("uv", uv.ravel())
 
 
-def _write_files(options: LightmapOptions, name: str, light: np.ndarray, metadata: dict, folder: str) -> str:
-    """The EXR (and the optional PNG) in ``folder``, or the EXR alone in a temporary folder when the image is to
-    be packed; returns the EXR's path."""
-    from ..core.image_file import write_exr, write_png
-    target = folder or tempfile.mkdtemp(prefix="radiosity_")
+@dataclass(frozen=True)
+class _PageFile:
+    """A page's EXR: ``path`` where it will be, ``source`` where it is now (a staged temporary, or the file in a
+    temporary folder when the image is packed into the .blend); ``widened``: written as 32-bit floats because
+    half floats could not hold its light."""
+
+    name: str
+    path: str
+    source: str
+    packed: bool
+    widened: bool
+
+
+def _write_files(options: LightmapOptions, name: str, light: np.ndarray, metadata: dict, folder: str,
+                 staged: StagedFiles) -> _PageFile:
+    """The EXR (and the optional PNG) staged in ``folder``, or the EXR alone in a temporary folder when the image
+    is to be packed."""
+    half = options.half and float(np.max(light, initial=0.0)) <= HALF_MAX
+    if not folder:
+        path = os.path.join(tempfile.mkdtemp(prefix="radiosity_"), bpy.path.clean_name(name) + ".exr")
+        write_exr(path, light, half, metadata)
+        return _PageFile(name, path, path, True, half != options.half)
     try:
-        os.makedirs(target, exist_ok=True)
+        os.makedirs(folder, exist_ok=True)
     except OSError as error:
-        raise SceneError(f"Cannot write lightmaps into the folder '{target}': {error.strerror}.") from error
-    path = os.path.join(target, bpy.path.clean_name(name) + ".exr")
-    write_exr(path, light, options.half, metadata)
-    if options.png_exposure is not None and folder:
-        write_png(os.path.splitext(path)[0] + ".png", light, options.png_exposure,
-                  {"radiosity:encoding": f"sRGB(clamp(light x 2^{options.png_exposure:g}, 0, 1)), 8 bits"})
-    return path
+        raise OutputError(f"Cannot write lightmaps into the folder '{folder}': {error.strerror}.") from error
+    path = os.path.join(folder, bpy.path.clean_name(name) + ".exr")
+    source = staged.stage(path, lambda temporary: write_exr(temporary, light, half, metadata),
+                          lambda temporary: check_image(temporary, light))
+    if options.png_exposure is not None:
+        encoding = {"radiosity:encoding": f"sRGB(clamp(light x 2^{options.png_exposure:g}, 0, 1)), 8 bits"}
+        staged.stage(os.path.splitext(path)[0] + ".png",
+                     lambda temporary: write_png(temporary, light, options.png_exposure, encoding),
+                     lambda temporary: check_image(temporary, light))
+    return _PageFile(name, path, source, False, half != options.half)
 
 
-def _load_image(name: str, path: str, lightmap_name: str, page: int, pack: bool):
-    """The Blender image ``name`` showing the EXR of page ``page`` of the lightmap ``lightmap_name`` (replacing the
-    file of the one a previous bake made); packed into the .blend, and the temporary file removed, when
-    ``pack``."""
+def _load_image(name: str, file: _PageFile, lightmap_name: str, page: int):
+    """The Blender image ``name`` showing page ``page`` of the lightmap ``lightmap_name`` from ``file.path``
+    (replacing the file of the one a previous bake made). Blender reads image files when their pixels are first
+    needed: the image is opened on the staged file and pointed at its final path without reading it. A packed
+    image is read into the .blend now, and its temporary file removed."""
     image = bpy.data.images.get(name)
     if image is None:
-        image = bpy.data.images.load(path)
+        image = bpy.data.images.load(file.source)
         image.name = name
-    else:
-        image.filepath = path
-        image.source = "FILE"
-        image.reload()
+    image.filepath_raw = file.path
+    image.source = "FILE"
+    image.reload()
     image[OWNED_IMAGE] = lightmap_name
     image[PAGE_PROPERTY] = page
     image.use_fake_user = True  # kept in the saved .blend even before a material uses it
-    if pack:
+    if file.packed:
         image.pack()
-        os.remove(path)
-        os.rmdir(os.path.dirname(path))
+        os.remove(file.path)
+        os.rmdir(os.path.dirname(file.path))
     return image
 
 

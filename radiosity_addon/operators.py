@@ -23,8 +23,8 @@ def _summary(report: dict) -> str:
 
 
 def _errors():
-    from ..core import SceneError
-    return (SceneError,)
+    from ..core import BakeError
+    return (BakeError,)
 
 
 class RADIOSITY_OT_bake(bpy.types.Operator):
@@ -103,9 +103,10 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         return {"CANCELLED"}
 
     def _apply(self, job):
-        """Write the results (main thread) and report; a file that cannot be written fails the bake."""
+        """Write the results (main thread) and report; a file that cannot be written fails the bake, and the
+        earlier files stay as they were."""
         try:
-            report = bake_job.apply(job)
+            report = bake_job.write_outputs(job)
         except _errors() as error:
             return self._failed(error)
         for warning in report["warnings"]:

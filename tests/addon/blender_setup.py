@@ -1,7 +1,11 @@
 """Helpers for add-on tests with the bpy module: load the extension package, build scenes, bake with Cycles."""
 from __future__ import annotations
 
+import resource
 import runpy
+import signal
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +16,31 @@ ROOT = Path(__file__).resolve().parents[2]
 def load_extension():
     """The repository root imported as the package ``radiosity_baker`` (as Blender imports the extension)."""
     return runpy.run_path(str(ROOT / "radiosity_addon" / "__main__.py"), run_name="loader")["load_package"]()
+
+
+def run_cli(*args, file_size_limit: int | None = None) -> tuple[int, str]:
+    """(exit code, stderr) of ``python -m radiosity_addon bake ARGS``; with ``file_size_limit`` no file the bake
+    writes may grow past that many bytes (a write beyond it fails with EFBIG, as on a full disk)."""
+    def limit_file_size():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (file_size_limit, file_size_limit))
+    result = subprocess.run([sys.executable, "-m", "radiosity_addon", "bake", *map(str, args)], cwd=ROOT,
+                            capture_output=True, text=True, timeout=600,
+                            preexec_fn=limit_file_size if file_size_limit else None)
+    return result.returncode, result.stderr
+
+
+def save_scene(path: Path, with_light=True, with_mesh=True) -> Path:
+    """A 2 m floor of 4 x 4 quads under a 1 m roof of 2 x 2, lit by a 100 W point lamp, saved at ``path``."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    if with_mesh:
+        grid_plane("Floor", 2.0, 4)
+        grid_plane("Roof", 1.0, 2, location=(0, 0, 1.0))
+    if with_light:
+        add_light("POINT", (0.5, 0.5, 2.0), 100.0)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
 
 
 def make_sample(name: str, folder: Path) -> Path:
@@ -129,7 +158,7 @@ def lightmap_bake(quality: str, options, folder) -> tuple:
                                                                               lightmap_folder=str(folder)))
     job.solve(bake, lambda fraction, message: None, lambda: False)
     seconds = time.perf_counter() - started
-    return bake, job.apply(bake), seconds
+    return bake, job.write_outputs(bake), seconds
 
 
 def triangle_uvs(mesh, uv_map: str) -> np.ndarray:

@@ -1,33 +1,12 @@
 """The command line contract: success writes OUT.blend and REPORT.json; each bad input exits non-zero with a
 one-line reason on stderr."""
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import bpy
 import numpy as np
 import pytest
 
-from blender_setup import ROOT, add_light, corner_colors, grid_plane
-
-
-def run_cli(*args):
-    result = subprocess.run([sys.executable, "-m", "radiosity_addon", "bake", *map(str, args)], cwd=ROOT,
-                            capture_output=True, text=True, timeout=600)
-    return result.returncode, result.stderr
-
-
-def save_scene(path: Path, with_light=True, with_mesh=True):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    if with_mesh:
-        grid_plane("Floor", 2.0, 4)
-        grid_plane("Roof", 1.0, 2, location=(0, 0, 1.0))
-    if with_light:
-        add_light("POINT", (0.5, 0.5, 2.0), 100.0)
-    bpy.ops.wm.save_as_mainfile(filepath=str(path))
-    return path
+from blender_setup import add_light, corner_colors, grid_plane, run_cli, save_scene
 
 
 @pytest.fixture

@@ -183,7 +183,7 @@ def test_unwritable_lightmap_folder_fails_before_changing_the_file(empty_scene, 
     grid_plane("Floor", 2.0, 2)
     add_light("POINT", (0, 0, 1.5), 100.0)
     job = extension.radiosity_addon.job
-    from radiosity_baker.core import SceneError
+    from radiosity_baker.core import OutputError
     from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
     from radiosity_baker.radiosity_addon.presets import UserSettings
     blocked = tmp_path / "not a folder"
@@ -192,8 +192,8 @@ def test_unwritable_lightmap_folder_fails_before_changing_the_file(empty_scene, 
         "BOTH", lightmap=LightmapOptions(resolution=32), lightmap_folder=str(blocked)))
     job.solve(bake, lambda fraction, message: None, lambda: False)
     before = scene_state(), sorted(image.name for image in bpy.data.images)
-    with pytest.raises(SceneError, match="not a folder"):
-        job.apply(bake)
+    with pytest.raises(OutputError, match="not a folder"):
+        job.write_outputs(bake)
     assert (scene_state(), sorted(image.name for image in bpy.data.images)) == before
 
 
@@ -276,7 +276,7 @@ def test_objects_whose_modifiers_change_the_topology(empty_scene, extension, tmp
     bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs(
         "LIGHTMAP", lightmap=LightmapOptions(texels_per_metre=32, padding=2), lightmap_folder=str(tmp_path)))
     job.solve(bake, lambda fraction, message: None, lambda: False)
-    report = job.apply(bake)
+    report = job.write_outputs(bake)
     assert {entry["name"] for entry in report["objects"]} == {"Subdivided", "Subdivided twin"}
     assert any("'Arrayed'" in warning and "Array" in warning for warning in report["warnings"])
     assert [layer.name for layer in arrayed.data.uv_layers] == ["UVMap"]
@@ -325,7 +325,7 @@ def test_bake_onto_an_existing_uv_map(empty_scene, extension, tmp_path):
     bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs("LIGHTMAP", lightmap=options,
                                                                       lightmap_folder=str(tmp_path)))
     job.solve(bake, lambda fraction, message: None, lambda: False)
-    report = job.apply(bake)
+    report = job.write_outputs(bake)
     for obj in (shaded, other):
         assert [layer.name for layer in obj.data.uv_layers] == ["UVMap"]
         assert np.array_equal(triangle_uvs(obj.data, "UVMap"), before[obj.name])

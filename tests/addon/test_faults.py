@@ -1,0 +1,209 @@
+"""The fault matrix of the command line: a full disk, an interrupt, an output that is the input, bounds on every
+number, and odd scenes. In every case the exit code and the one-line reason are the documented ones, earlier
+files keep their bytes, and no temporary file is left behind."""
+import hashlib
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import bpy
+import numpy as np
+import pytest
+
+from blender_setup import ROOT, add_light, corner_colors, grid_plane, run_cli, save_scene
+
+pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="file size limits and signals are POSIX")
+OUTPUTS = ("out.blend", "report.json", "Radiosity_Lightmap.exr", "Radiosity_Lightmap.png")
+BAKE = ("--quality", "draft", "--target", "both", "--png-exposure", "0")
+
+
+def digests(folder):
+    return {path.name: hashlib.sha256(path.read_bytes()).hexdigest() for path in sorted(folder.iterdir())}
+
+
+def leftovers(folder):
+    return [path.name for path in folder.iterdir() if ".partial-" in path.name]
+
+
+@pytest.fixture
+def baked(tmp_path, extension):
+    """A scene and a good earlier bake of it (every output present)."""
+    source = save_scene(tmp_path / "in.blend")
+    code, stderr = run_cli(source, "-o", tmp_path / "out.blend", "--report", tmp_path / "report.json", *BAKE)
+    assert code == 0, stderr
+    assert all((tmp_path / name).exists() for name in OUTPUTS)
+    return tmp_path
+
+
+@pytest.mark.parametrize("fails", ["out.blend", "Radiosity_Lightmap.exr"])
+def test_a_full_disk_keeps_every_earlier_output(baked, fails):
+    """Files may not grow past a limit just under the size of the one that should fail (the .blend is the
+    largest output, the EXR the next): the bake exits 5 naming it, and no output changes."""
+    sizes = sorted((baked / name).stat().st_size for name in OUTPUTS)
+    limit = (sizes[-1] + sizes[-2]) // 2 if fails == "out.blend" else (sizes[-2] + sizes[-3]) // 2
+    assert (baked / fails).stat().st_size > limit
+    before = digests(baked)
+    code, stderr = run_cli(baked / "in.blend", "-o", baked / "out.blend", "--report", baked / "report.json", *BAKE,
+                           "--seed", "1", file_size_limit=limit)
+    assert code == 5 and "Cannot write" in stderr and f"{baked / fails}'" in stderr, stderr
+    assert digests(baked) == before and not leftovers(baked)
+
+
+def test_the_input_is_replaced_only_with_overwrite(baked):
+    source = baked / "in.blend"
+    before = digests(baked)
+    code, stderr = run_cli(source, "-o", source, "--quality", "draft")
+    assert code == 2 and "--overwrite" in stderr
+    code, stderr = run_cli(source, "-o", source, "--quality", "draft", "--overwrite", file_size_limit=40_000)
+    assert code == 5 and digests(baked) == before and not leftovers(baked), stderr
+    code, stderr = run_cli(source, "-o", source, "--quality", "draft", "--overwrite")
+    assert code == 0, stderr
+    bpy.ops.wm.open_mainfile(filepath=str(source))
+    assert corner_colors(bpy.data.objects["Floor"].data, "Radiosity").max() > 0
+
+
+@pytest.mark.parametrize("report", ["/dev/full", "{folder}", "/proc/radiosity_report.json"])
+def test_an_unwritable_report_leaves_no_new_blend(tmp_path, extension, report):
+    source = save_scene(tmp_path / "in.blend")
+    code, stderr = run_cli(source, "-o", tmp_path / "out.blend", "--report", report.format(folder=tmp_path),
+                           "--quality", "draft")
+    assert code == 5 and ("report file" in stderr or "Cannot write" in stderr), stderr
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["in.blend"]
+
+
+@pytest.mark.parametrize("signal_number, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_an_interrupt_cancels_cleanly(tmp_path, extension, signal_number, code):
+    """Interrupted while it solves the room sample: one line 'cancelled', the signal's exit code, no output."""
+    from blender_setup import make_sample
+    source = make_sample("room", tmp_path)
+    bake = subprocess.Popen([sys.executable, "-m", "radiosity_addon", "bake", str(source), "-o",
+                             str(tmp_path / "out.blend"), "--report", str(tmp_path / "report.json"), "--target",
+                             "both", "--quality", "medium"], cwd=ROOT, stderr=subprocess.PIPE, text=True)
+    while True:  # until the solve has started (the first progress line after export)
+        line = bake.stderr.readline()
+        if not line or line.startswith("[radiosity]"):
+            break
+    time.sleep(1.0)
+    bake.send_signal(signal_number)
+    stderr = bake.communicate(timeout=120)[1]
+    assert bake.returncode == code and "cancelled" in stderr.splitlines()[-1], stderr
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["room.blend"]
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--texels-per-meter", "1e9"], "--texels-per-meter: must be from"),
+    (["--texels-per-meter", "nan"], "--texels-per-meter: must be from"),
+    (["--texels-per-meter", "inf"], "--texels-per-meter: must be from"),
+    (["--resolution", "100000"], "--resolution: must be from"),
+    (["--resolution", "8192"], "above --max-size 4096"),
+    (["--max-size", "1"], "--max-size: must be from"),
+    (["--png-exposure", "nan"], "--png-exposure: must be from"),
+    (["--quality", "custom", "--element-size", "1e-6"], "--element-size: must be from"),
+    (["--quality", "custom", "--gather-samples", "0"], "--gather-samples: must be from"),
+    (["--seed", "-1"], "--seed: must be from"),
+])
+def test_numbers_out_of_range_exit_2_naming_the_argument(tmp_path, extension, arguments, message):
+    source = save_scene(tmp_path / "in.blend")
+    code, stderr = run_cli(source, "-o", tmp_path / "out.blend", "--target", "lightmap", *arguments)
+    assert code == 2 and message in stderr, stderr
+    assert not (tmp_path / "out.blend").exists()
+
+
+def test_a_texel_density_over_the_memory_limit_is_refused_before_unwrapping(tmp_path, extension):
+    """10,000 texels per metre on 5 m^2 of surface are 5e8 texels, about 1.5 TB: refused in seconds."""
+    source = save_scene(tmp_path / "in.blend")
+    started = time.perf_counter()
+    code, stderr = run_cli(source, "-o", tmp_path / "out.blend", "--target", "lightmap", "--texels-per-meter",
+                           "10000", "--max-memory-gb", "4")
+    assert code == 4 and "memory limit is 4 GiB" in stderr, stderr
+    assert time.perf_counter() - started < 60
+
+
+def make_scene(tmp_path, build):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    build()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "in.blend"))
+    return tmp_path / "in.blend"
+
+
+def test_an_object_at_scale_zero_bakes(tmp_path, extension):
+    """A roof squashed flat by a zero scale along Z still casts its shadow; the floor under it bakes."""
+    def build():
+        grid_plane("Floor", 2.0, 4)
+        cube = grid_plane("Flat", 1.0, 2, location=(0, 0, 1.0))
+        cube.scale = (1.0, 1.0, 0.0)
+        add_light("POINT", (0.0, 0.0, 2.0), 100.0)
+    code, stderr = run_cli(make_scene(tmp_path, build), "-o", tmp_path / "out.blend", "--quality", "draft")
+    assert code == 0, stderr
+
+
+def test_a_missing_texture_file_names_the_image(tmp_path, extension):
+    def build():
+        floor = grid_plane("Floor", 2.0, 2)
+        material = floor.data.materials[0]
+        node = material.node_tree.nodes.new("ShaderNodeTexImage")
+        node.image = bpy.data.images.new("Bricks", 4, 4)
+        node.image.source, node.image.filepath = "FILE", str(tmp_path / "no such bricks.png")
+        material.node_tree.links.new(node.outputs["Color"],
+                                     material.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+        add_light("POINT", (0.0, 0.0, 2.0), 100.0)
+    code, stderr = run_cli(make_scene(tmp_path, build), "-o", tmp_path / "out.blend", "--quality", "draft")
+    assert code == 4 and "image 'Bricks'" in stderr and "no such bricks.png" in stderr, stderr
+
+
+def test_a_folder_as_input_says_so(tmp_path, extension):
+    code, stderr = run_cli(tmp_path, "-o", tmp_path / "out.blend")
+    assert code == 3 and "is a folder" in stderr, stderr
+
+
+def test_unbounded_light_power_names_the_light(tmp_path, extension):
+    def build():
+        grid_plane("Floor", 2.0, 2)
+        add_light("POINT", (0.0, 0.0, 2.0), 1e30).name = "Flare"
+    code, stderr = run_cli(make_scene(tmp_path, build), "-o", tmp_path / "out.blend", "--quality", "draft")
+    assert code == 4 and "Light 'Flare'" in stderr, stderr
+
+
+def test_light_beyond_half_floats_is_written_as_32_bit(tmp_path, extension):
+    """A 1e9 W lamp 1 m above a floor gives it irradiance / pi of about P / (4 pi^2) = 2.5e7 under the lamp,
+    far above the largest half float (65504): the EXR is written in 32-bit floats, with a warning, and reads back
+    finite and that bright."""
+    from radiosity_baker.core.image_file import read_image
+
+    def build():
+        grid_plane("Floor", 2.0, 4)
+        add_light("POINT", (0.0, 0.0, 1.0), 1e9)
+    code, stderr = run_cli(make_scene(tmp_path, build), "-o", tmp_path / "out.blend", "--report",
+                           tmp_path / "report.json", "--target", "lightmap", "--quality", "draft")
+    assert code == 0, stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert any("32-bit floats" in warning for warning in report["warnings"])
+    light = read_image(str(tmp_path / "Radiosity_Lightmap.exr"))[..., :3]
+    assert np.isfinite(light).all() and light.max() > 0.5 * 1e9 / (4 * np.pi ** 2)
+
+
+@pytest.mark.parametrize("library_missing", [False, True])
+def test_a_linked_object_is_left_out_of_the_report(tmp_path, extension, library_missing):
+    """An object linked from a library lights the scene but cannot be saved: a warning names it and the report
+    lists only the local objects. A library file that is gone is named in the warnings."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    grid_plane("Statue", 0.5, 1, location=(0.0, 0.0, 0.5))
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "library.blend"))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    grid_plane("Floor", 2.0, 4)
+    add_light("POINT", (0.0, 0.0, 2.0), 100.0)
+    with bpy.data.libraries.load(str(tmp_path / "library.blend"), link=True) as (source, target):
+        target.objects = ["Statue"]
+    bpy.context.scene.collection.objects.link(target.objects[0])
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "in.blend"))
+    if library_missing:
+        (tmp_path / "library.blend").unlink()
+    code, stderr = run_cli(tmp_path / "in.blend", "-o", tmp_path / "out.blend", "--report", tmp_path / "report.json",
+                           "--quality", "draft")
+    assert code == 0, stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert [entry["name"] for entry in report["objects"]] == ["Floor"]
+    expected = "library.blend' is missing" if library_missing else "Object 'Statue' is linked from"
+    assert any(expected in warning for warning in report["warnings"]), report["warnings"]
