@@ -197,6 +197,37 @@ def test_unwritable_lightmap_folder_fails_before_changing_the_file(empty_scene, 
     assert (scene_state(), sorted(image.name for image in bpy.data.images)) == before
 
 
+def test_a_full_disk_in_the_panels_bake_keeps_the_earlier_lightmap(empty_scene, extension, tmp_path, monkeypatch):
+    """The panel's bake writes its EXR beside the .blend the way the command line does: when the disk fills
+    while the second bake writes, the first bake's file keeps its bytes and no temporary is left."""
+    grid_plane("Floor", 2.0, 2)
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    job = extension.radiosity_addon.job
+    lightmaps = extension.radiosity_addon.lightmaps
+    from radiosity_baker.core import OutputError
+    from radiosity_baker.radiosity_addon.presets import UserSettings
+    outputs = job.Outputs("LIGHTMAP", lightmap=lightmaps.LightmapOptions(resolution=32),
+                          lightmap_folder=str(tmp_path))
+
+    def bake():
+        work = job.prepare(bpy.context, UserSettings("DRAFT"), outputs)
+        job.solve(work, lambda fraction, message: None, lambda: False)
+        return job.write_outputs(work)
+    bake()
+    exr = tmp_path / "Radiosity_Lightmap.exr"
+    first = exr.read_bytes()
+
+    def disk_full(path, light, half, metadata):
+        with open(path, "wb") as file:
+            file.write(first[:100])
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(lightmaps, "write_exr", disk_full)
+    with pytest.raises(OutputError, match="No space left on device"):
+        bake()
+    assert exr.read_bytes() == first
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["Radiosity_Lightmap.exr"]
+
+
 def test_linked_duplicates_get_their_own_lightmap_space(empty_scene, extension, tmp_path):
     """Two objects sharing one mesh: the UV map holds the first one's block; the second carries an offset to a
     block of its own, which does not overlap the first and holds its own (differently lit) light."""
