@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import triangle_areas
 from .errors import SettingsError
+from .geometry import triangle_areas
 from .texels import rasterize
 
 OVERLAP_TOLERANCE = 0.01  # share of an object's texel centres that may fall on another object's

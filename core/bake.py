@@ -20,9 +20,9 @@ from . import adaptive
 from .cluster_tree import build_tree
 from .clusters import cluster_pieces
 from .direct import DirectLighting
+from .errors import SettingsError
 from .hierarchical import (HierarchicalState, Receivers, live_side_test, node_deviation, node_radiosity,
                            sample_exposure, side_direct_irradiance, solve)
-from .errors import SettingsError
 from .lights import direct_irradiance
 from .links import OPENING, LinkSources, build_links, covered_share, refine_links
 from .memory import check_bake_memory, default_limit_gb

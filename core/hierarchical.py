@@ -27,11 +27,11 @@ import numpy as np
 
 from .cluster_tree import ClusterTree
 from .clusters import SAMPLES, FaceClusters
+from .errors import BakeCancelled
 from .geometry import duplicate_sides, triangle_unit_normals
 from .lights import direct_irradiance
 from .links import Links, Transfer
 from .mesh import ElementMesh
-from .errors import BakeCancelled
 from .progress import Progress, never_cancelled, no_progress
 from .raycast import RayCaster
 from .scene import Scene

@@ -11,8 +11,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .gather import final_gather, gather_pays
 from .errors import BakeCancelled, SettingsError
+from .gather import final_gather, gather_pays
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import triangle_areas
 from .texels import (Texels, face_to_face_contact, inset, inside_closed_geometry, push_out_of_geometry, rasterize,

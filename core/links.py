@@ -36,9 +36,9 @@ import numpy as np
 
 from .cluster_tree import NODE_SAMPLES, ClusterTree
 from .clusters import FaceClusters
+from .errors import BakeCancelled
 from .formfactor import point_to_polygon, triangle_samples, visible_fraction
 from .geometry import lengths, tangent_frames, triangle_unit_normals
-from .errors import BakeCancelled
 from .progress import Progress, never_cancelled, no_progress
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .clusters import SMALL_PIECE, normal_bins
-from .geometry import triangle_unit_normals
 from .errors import SceneError
+from .geometry import triangle_unit_normals
 
 DEFAULT_SHARE = 0.75
 GIB = 2 ** 30

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import BakeCancelled
 from .formfactor import point_to_polygon, point_to_triangle_with_visibility, triangle_samples
 from .mesh import Elements
-from .errors import BakeCancelled
 from .progress import Progress, never_cancelled, no_progress
 from .ragged import concatenated_ranges
 from .raycast import RayCaster

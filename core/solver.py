@@ -26,8 +26,8 @@ from typing import Callable
 
 import numpy as np
 
-from .mesh import Elements
 from .errors import BakeCancelled, SceneError
+from .mesh import Elements
 from .progress import Progress, never_cancelled, no_progress
 from .shooting import FormFactorMethod, Patches, row_blocks
 
