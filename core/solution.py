@@ -132,8 +132,11 @@ class Solution:
         only when its whole face is hidden."""
         triangles = self.scene.triangles[scene_triangle]
         normals = triangle_unit_normals(triangles)
-        inside = np.flatnonzero(inside_closed_geometry(self.caster, self.scene.triangles, np.einsum(
-            "mc,mck->mk", barycentric, triangles), normals, self.offset_m))
+        # Tested a hair inside the face (as the point is lit): a wall's corner on the floor lies in the floor's
+        # plane, where the probe rays graze the floor and meet it from behind.
+        points = inset(np.einsum("mc,mck->mk", barycentric, triangles), triangles.mean(axis=1), 4 * self.offset_m)
+        inside = np.flatnonzero(inside_closed_geometry(self.caster, self.scene.triangles, points, normals,
+                                                       self.offset_m))
         out = barycentric.copy()
         for step in UNCOVER_STEPS:
             if len(inside) == 0:
