@@ -75,6 +75,9 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--form-factors", choices=["raycast", "hemicube"], default="raycast")
     parser.add_argument("--attribute", default="Radiosity", help="colour attribute name (default: Radiosity)")
     parser.add_argument("--radiosity-mesh", action="store_true", help="also add the element mesh as an object")
+    parser.add_argument("--make-local", action="store_true",
+                        help="make objects linked from libraries local, with their meshes, so that they hold their "
+                             "bake (default: they light the scene but are not baked)")
     density = parser.add_mutually_exclusive_group()
     density.add_argument("--texels-per-meter", type=_number(float, 1e-3, 1e4),
                          help="lightmap density (default: from --quality)")
@@ -175,7 +178,7 @@ def _checked_bake(args) -> dict:
     lightmap = LightmapOptions(args.uv_map, args.lightmap_image, args.texels_per_meter, args.resolution,
                                args.padding, args.max_size, half=not args.float, png_exposure=args.png_exposure,
                                existing_uv_map=args.existing_uv_map)
-    outputs = Outputs(args.target.upper(), args.attribute, args.radiosity_mesh, lightmap, folder)
+    outputs = Outputs(args.target.upper(), args.attribute, args.radiosity_mesh, lightmap, folder, args.make_local)
     started = time.perf_counter()
     job = bake_job.prepare(bpy.context, user, outputs)
     bake_job.solve(job, _progress_to_stderr(), lambda: False)

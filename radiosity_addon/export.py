@@ -130,6 +130,20 @@ def _add_emitter_backs(columns: dict, names: list[str], materials: list[Material
         columns[key].append(value)
 
 
+def make_linked_local(context) -> list[str]:
+    """Make the rendered mesh objects this file cannot save changes to local, with their meshes (Blender's Make
+    Local), so that they hold their bake; returns a note per object."""
+    notes = []
+    for obj in [o for o in context.scene.objects if o.type == "MESH" and not o.hide_render and _linked(o)]:
+        source = _linked(obj)
+        if obj.library is not None:
+            obj = obj.make_local()
+        if obj.data.library is not None or obj.data.override_library is not None:
+            obj.data = obj.data.make_local()
+        notes.append(f"Object '{obj.name}' was linked from {source}: made local, with its mesh, to hold its bake.")
+    return notes
+
+
 def _linked(obj) -> str:
     """Where an object's own data comes from when this file cannot save changes to it (a linked library, or a
     library override of its mesh); "" when it is local."""

@@ -17,7 +17,7 @@ from ..core import SceneError
 from ..core.geometry import triangle_areas
 from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory
 from ..core.staged_files import StagedFiles
-from .export import Export, export_scene
+from .export import Export, export_scene, make_linked_local
 from .lightmaps import LightmapOptions, LightmapPlan, plan_lightmap, write_lightmap
 from .presets import UserSettings, bake_settings, lightmap_settings
 from .writeback import check_attribute_name_free, write_radiosity_mesh, write_vertex_colors
@@ -28,13 +28,15 @@ TARGETS = ("VERTEX_COLORS", "LIGHTMAP", "BOTH")
 @dataclass(frozen=True)
 class Outputs:
     """What a bake writes: target VERTEX_COLORS, LIGHTMAP or BOTH; the colour attribute's name; the radiosity
-    mesh object; the lightmap's options and folder ("" = pack into the .blend)."""
+    mesh object; the lightmap's options and folder ("" = pack into the .blend); make_local: make objects linked
+    from libraries (and linked meshes of library overrides) local so that they can hold their bake."""
 
     target: str = "VERTEX_COLORS"
     attribute: str = "Radiosity"
     create_radiosity_mesh: bool = False
     lightmap: LightmapOptions = LightmapOptions()
     lightmap_folder: str = ""
+    make_local: bool = False
 
     @property
     def vertex_colors(self) -> bool:
@@ -62,7 +64,9 @@ class Job:
 def prepare(context, user: UserSettings, outputs: Outputs) -> Job:
     if outputs.target not in TARGETS:
         raise SceneError(f"Target must be one of {', '.join(TARGETS)}, got '{outputs.target}'.")
+    made_local = make_linked_local(context) if outputs.make_local else []
     export = export_scene(context)
+    export.warnings.extend(made_local)
     settings = bake_settings(user, export.scene.size_m)
     if not any(item.writable for item in export.objects) and not outputs.create_radiosity_mesh:
         raise SceneError("Nothing to bake: no visible mesh object is set to 'Bake'.")

@@ -42,6 +42,7 @@ class RENDER_PT_radiosity(bpy.types.Panel):
             gather.enabled = settings.lightmap_indirect != "interpolate"
             gather.prop(settings, "gather_samples")
         layout.prop(settings, "create_radiosity_mesh")
+        layout.prop(settings, "make_local")
         if STATUS["running"]:
             if hasattr(layout, "progress"):
                 layout.progress(factor=STATUS["fraction"], type="BAR", text=STATUS["message"])

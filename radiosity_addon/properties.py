@@ -35,6 +35,9 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
     create_radiosity_mesh: BoolProperty(name="Create Radiosity Mesh", default=False,
                                         description="Also add an object holding the adaptive element mesh and "
                                                     "its light")
+    make_local: BoolProperty(name="Make Linked Objects Local", default=False,
+                             description="Make objects linked from libraries local (with their meshes) so that "
+                                         "they hold their bake; off, they light the scene but are not baked")
     target: EnumProperty(name="Target", default="VERTEX_COLORS", items=[
         ("VERTEX_COLORS", "Vertex Colors", "A colour attribute per mesh corner"),
         ("LIGHTMAP", "Lightmap", "A lightmap texture on a new UV map (sharp shadows at any mesh density)"),
@@ -97,7 +100,7 @@ class RadiositySceneSettings(bpy.types.PropertyGroup):
                                   png_exposure=self.lightmap_png_exposure if self.lightmap_png else None,
                                   existing_uv_map=self.lightmap_existing_uv)
         return Outputs(self.target, self.attribute_name, self.create_radiosity_mesh, options,
-                       lightmap_folder(self.lightmap_folder))
+                       lightmap_folder(self.lightmap_folder), self.make_local)
 
 
 class RadiosityObjectSettings(bpy.types.PropertyGroup):

@@ -184,10 +184,8 @@ def test_light_beyond_half_floats_is_written_as_32_bit(tmp_path, extension):
     assert np.isfinite(light).all() and light.max() > 0.5 * 1e9 / (4 * np.pi ** 2)
 
 
-@pytest.mark.parametrize("library_missing", [False, True])
-def test_a_linked_object_is_left_out_of_the_report(tmp_path, extension, library_missing):
-    """An object linked from a library lights the scene but cannot be saved: a warning names it and the report
-    lists only the local objects. A library file that is gone is named in the warnings."""
+def link_statue(tmp_path):
+    """in.blend: a local floor and lamp, and a statue linked from library.blend."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     grid_plane("Statue", 0.5, 1, location=(0.0, 0.0, 0.5))
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "library.blend"))
@@ -198,6 +196,13 @@ def test_a_linked_object_is_left_out_of_the_report(tmp_path, extension, library_
         target.objects = ["Statue"]
     bpy.context.scene.collection.objects.link(target.objects[0])
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "in.blend"))
+
+
+@pytest.mark.parametrize("library_missing", [False, True])
+def test_a_linked_object_is_left_out_of_the_report(tmp_path, extension, library_missing):
+    """An object linked from a library lights the scene but cannot be saved: a warning names it and the report
+    lists only the local objects. A library file that is gone is named in the warnings."""
+    link_statue(tmp_path)
     if library_missing:
         (tmp_path / "library.blend").unlink()
     code, stderr = run_cli(tmp_path / "in.blend", "-o", tmp_path / "out.blend", "--report", tmp_path / "report.json",
@@ -207,3 +212,21 @@ def test_a_linked_object_is_left_out_of_the_report(tmp_path, extension, library_
     assert [entry["name"] for entry in report["objects"]] == ["Floor"]
     expected = "library.blend' is missing" if library_missing else "Object 'Statue' is linked from"
     assert any(expected in warning for warning in report["warnings"]), report["warnings"]
+
+
+def test_make_local_bakes_a_linked_object_into_the_saved_file(tmp_path, extension):
+    """With --make-local the linked statue becomes local with its mesh, is baked, and keeps its light in the
+    saved file; the library is not touched."""
+    link_statue(tmp_path)
+    library = hashlib.sha256((tmp_path / "library.blend").read_bytes()).hexdigest()
+    code, stderr = run_cli(tmp_path / "in.blend", "-o", tmp_path / "out.blend", "--report", tmp_path / "report.json",
+                           "--quality", "draft", "--make-local")
+    assert code == 0, stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert sorted(entry["name"] for entry in report["objects"]) == ["Floor", "Statue"]
+    assert any("Object 'Statue' was linked from" in warning for warning in report["warnings"])
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "out.blend"))
+    statue = bpy.data.objects["Statue"]
+    assert statue.library is None and statue.data.library is None
+    assert corner_colors(statue.data, "Radiosity").max() > 0
+    assert hashlib.sha256((tmp_path / "library.blend").read_bytes()).hexdigest() == library
