@@ -15,6 +15,7 @@ import argparse
 import json
 import math
 import os
+import shutil
 import signal
 import sys
 import time
@@ -56,7 +57,7 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("input", metavar="IN.blend", help="the .blend file to bake")
     parser.add_argument("-o", "--output", metavar="OUT.blend", required=True, help="where to save the baked file")
     parser.add_argument("--overwrite", action="store_true", help="allow OUT.blend to be IN.blend (replaced whole, "
-                        "only when the bake succeeds)")
+                        "only when the bake succeeds; the old file is kept as OUT.blend1)")
     parser.add_argument("--report", metavar="REPORT.json", help="write a JSON report of outputs and timings")
     parser.add_argument("--target", choices=["vertex_colors", "lightmap", "both"], default="vertex_colors",
                         help="colour attributes, a lightmap texture on a new UV map, or both (default: vertex_colors)")
@@ -186,6 +187,9 @@ def _checked_bake(args) -> dict:
         report = bake_job.apply(job, staged)
         report["seconds"] = time.perf_counter() - started
         report["input"], report["output"] = os.path.abspath(args.input), os.path.abspath(args.output)
+        if os.path.isfile(args.output) and bpy.context.preferences.filepaths.save_version > 0:
+            # Blender's own backup of the file a save replaces (Save Versions), made in the same commit.
+            staged.stage(args.output + "1", lambda path: shutil.copy2(args.output, path))
         staged.stage(args.output, _save_blend, _check_blend)
         if args.report:
             staged.stage(args.report, lambda path: _write_json(path, report), _check_json)
