@@ -18,6 +18,7 @@ from .geometry import lengths, tangent_frames, triangle_sample_barycentrics
 from .raycast import RayCaster
 
 _TINY = 1e-300
+COPLANAR = 1e-9  # a polygon vertex this share of its size from the receiver's plane lies in it (round-off)
 
 
 def clip_to_upper_half_space(points: np.ndarray, normals: np.ndarray, polygons: np.ndarray) -> np.ndarray:
@@ -49,9 +50,13 @@ def point_to_polygon(points: np.ndarray, normals: np.ndarray, polygons: np.ndarr
     """Unoccluded form factor from differential areas (m, 3) with unit normals to (m, V, 3) polygons.
 
     Polygons wholly above the receiver's plane go straight to the contour sum; only those crossing it are
-    clipped first; those wholly below get 0.
+    clipped first; those wholly below get 0, and so do those in the receiver's plane to round-off (COPLANAR of
+    their size): a face duplicated onto another would otherwise fill its hemisphere (F = 1 from a height of
+    1e-17 m) and the classic solvers' sums would diverge.
     """
     height = np.einsum("mvk,mk->mv", polygons - points[:, None, :], normals)
+    size = lengths(polygons - np.roll(polygons, 1, axis=1)).max(axis=1, keepdims=True)
+    height = np.where(np.abs(height) <= COPLANAR * size, 0.0, height)
     above, below = (height > 0).all(axis=1), (height <= 0).all(axis=1)
     factors = np.zeros(len(points))
     factors[above] = _contour_sum(polygons[above] - points[above, None, :], normals[above])

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from core import BakeSettings, Material, PointLight, Scene, bake
+from core import BakeSettings, Material, PointLight, Scene, World, bake
 from core.bake import ROUGH_RESIDUAL
 from core.mesh import Elements, build_mesh, elements_of
 from core.raycast import RayCaster
@@ -253,3 +253,16 @@ def test_open_scene_gets_no_ambient_light():
                   lights=[PointLight("bulb", (0.0, 0.0, 1.0), power_w=100.0)])
     solution = bake(scene, BakeSettings(patch_size_m=0.5, element_size_m=0.25, residual_threshold=0.5))
     assert np.abs(solution.ambient_irradiance).max() == 0.0
+
+
+@pytest.mark.parametrize("solver", ["progressive", "direct"])
+def test_a_face_duplicated_three_times_under_the_sky_gets_the_sky(solver):
+    """Three coincident copies of a pure-white triangle under a world of radiance 1 (found by tests/test_fuzz.py):
+    each copy lies in the others' plane and exchanges nothing with them, so every element receives the open sky's
+    irradiance pi L (references.md). Round-off put the copies 1e-17 m above each other: form factors of 1, and
+    the classic solvers diverged (irradiance 100 pi, negative, or an overflow)."""
+    triangle = np.array([[[1.0, 0.0, 1.0], [0.0, 1.0, 2.0], [0.0, 0.0, 0.0]]])
+    scene = Scene(np.repeat(triangle, 3, axis=0), [0, 0, 0], [Material("White", (1.0, 1.0, 1.0))],
+                  world=World((0.0, 0.0, 1.0)))
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=1.0, solver=solver))
+    assert solution.element_irradiance()[:, 2] == pytest.approx(np.pi, rel=0.01)
