@@ -6,7 +6,8 @@ receive, so they receive at most S / (1 - rho_max) in all. S is at most each lam
 sun or the world (pi L) over all surfaces, and each emitter's pi L from both faces.
 
 RADIOSITY_FUZZ_EXAMPLES sets the number of examples (default 300, derandomised so that CI runs the same ones;
-the longer documented run: RADIOSITY_FUZZ_EXAMPLES=1000 RADIOSITY_FUZZ_RANDOM=1 pytest tests/test_fuzz.py).
+the longer documented run: RADIOSITY_FUZZ_EXAMPLES=1200 pytest tests/test_fuzz.py, about 5 minutes);
+RADIOSITY_FUZZ_RANDOM=1 draws new examples each run.
 """
 import os
 
