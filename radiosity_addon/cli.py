@@ -18,6 +18,7 @@ import os
 import shutil
 import signal
 import sys
+import threading
 import time
 
 from .presets import PRESETS, UserSettings
@@ -139,7 +140,6 @@ def _terminate(signum, frame):
 
 
 def _main_thread() -> bool:
-    import threading
     return threading.current_thread() is threading.main_thread()
 
 
