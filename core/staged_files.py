@@ -50,10 +50,6 @@ class StagedFiles:
             raise
         return temporary
 
-    @property
-    def targets(self) -> list[str]:
-        return [target for _, target in self._staged]
-
     def commit(self) -> None:
         """Rename every staged file over its target, with interrupts held back until all are in place."""
         blocked = {signal.SIGINT, signal.SIGTERM} if hasattr(signal, "pthread_sigmask") else set()

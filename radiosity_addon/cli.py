@@ -167,8 +167,7 @@ def _checked_bake(args) -> dict:
     from . import job as bake_job
     from .job import Outputs
     from .lightmaps import LightmapOptions
-    _check_arguments(args)
-    folder = os.path.abspath(args.lightmap_dir or os.path.dirname(os.path.abspath(args.output)))
+    folder = _check_arguments(args)
     try:
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.input), load_ui=False)
     except RuntimeError as error:
@@ -197,9 +196,9 @@ def _checked_bake(args) -> dict:
     return report
 
 
-def _check_arguments(args) -> None:
+def _check_arguments(args) -> str:
     """What argparse cannot check alone: the input file, the output against the input, the resolution against
-    the maximum size, and that every output folder is writable."""
+    the maximum size, and that every output folder is writable; returns the lightmaps' folder."""
     if os.path.isdir(args.input):
         raise CommandError(EXIT_INPUT, f"the input is a folder, not a .blend file: {args.input}")
     if not os.path.isfile(args.input):
@@ -217,6 +216,7 @@ def _check_arguments(args) -> None:
                                             "or not a regular file)")
     if args.target != "vertex_colors" and not _writable(os.path.join(folder, "lightmap.exr")):
         raise CommandError(EXIT_OUTPUT, f"cannot write lightmaps into {folder} (missing or read-only folder)")
+    return folder
 
 
 def _save_blend(path: str) -> None:

@@ -88,10 +88,11 @@ def export_scene(context) -> Export:
         count = len(loops)
         name = original.name if not instance.is_instance else f"{original.name} (instance of {owner.name})"
         writable = not instance.is_instance and original.type == "MESH" and mode == "BAKE"
-        if writable and _linked(original):
+        source = _linked(original) if writable else ""
+        if source:
             writable = False
-            materials.warnings.append(f"Object '{original.name}' is linked from {_linked(original)}: it lights the "
-                                      "scene but its bake cannot be saved in this file (make it local to bake it).")
+            materials.warnings.append(f"Object '{original.name}' is linked from {source}: it lights the scene but "
+                                      "its bake cannot be saved in this file (make it local to bake it).")
         objects.append(ExportedObject(
             name=original.name, mesh_name=original.data.name if original.type == "MESH" else "",
             first_triangle=sum(len(t) for t in columns["triangles"]), triangle_count=count, corner_loops=loops,
