@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from radiosity_baker.core.texels import inside_any_triangle, rasterize, triangle_planes
+from radiosity_baker.core.surface_probes import inside_any_triangle, triangle_planes
+from radiosity_baker.core.texels import rasterize
 
 PLANE_TOLERANCE_M = 1e-3
 

@@ -51,15 +51,15 @@ def main() -> None:
     from blender_setup import cycles_lightmap_bake, lightmap_bake, load_extension, make_sample, uv_coverage
     package = load_extension()
     package.register()
-    from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY, LightmapOptions
+    from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY
     folder = Path(tempfile.mkdtemp())
     scene_file = make_sample(args.scene, folder)
-    options = LightmapOptions(resolution=args.resolution, padding=2)
     ours = {}
     for quality in args.qualities.split(","):
         bpy.ops.wm.open_mainfile(filepath=str(scene_file))
         # a fixed resolution is one atlas page; the UV map Cycles bakes on is the same for every preset
-        bake, report, seconds = lightmap_bake(quality, options, folder)
+        bake, report, seconds = lightmap_bake(quality, folder, lightmap_resolution=args.resolution,
+                                              lightmap_padding=2)
         page, = bake.lightmaps
         ours[quality] = (page.light.astype(np.float64), seconds)
         moved = page.moved  # sample points inside closed geometry: Cycles bakes the inside there

@@ -88,15 +88,15 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
     from lightmap_vs_cycles import print_against_cycles, relative_rmse
     package = load_extension()
     package.register()
-    from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY, LightmapOptions
+    from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY
     from coplanar_overlaps import coplanar_overlap_texels
     scene_file = courtyard_file(count, folder)
     ours = {}
     for quality in qualities:
         bpy.ops.wm.open_mainfile(filepath=str(scene_file))
         (folder / "compare").mkdir(exist_ok=True)
-        bake, report, seconds = lightmap_bake(quality, LightmapOptions(texels_per_metre=density, padding=2),
-                                              folder / "compare")
+        bake, report, seconds = lightmap_bake(quality, folder / "compare", texels_per_metre=density,
+                                              lightmap_padding=2)
         page, = bake.lightmaps  # one page at this density
         ours[quality] = (page.light.astype(np.float64), seconds)
         height, width = page.light.shape[:2]

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import xatlas
 
 from .errors import SettingsError
 from .geometry import triangle_areas
@@ -34,7 +35,6 @@ def unwrap(positions_m: np.ndarray, triangle_vertices: np.ndarray, texels_per_me
            padding_texels: int) -> ChartBlock:
     """Charts of a triangle mesh (world-scale (V, 3) positions, (t, 3) vertex indices) packed by xatlas at the
     given texel density, with ``padding_texels`` between charts and around the block's border."""
-    import xatlas
     atlas = xatlas.Atlas()
     atlas.add_mesh(np.ascontiguousarray(positions_m, dtype=np.float32),
                    np.ascontiguousarray(triangle_vertices, dtype=np.uint32))
@@ -98,17 +98,74 @@ class AtlasLayout:
         return int(self.page.max(initial=-1)) + 1
 
 
-def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: list[int], padding_texels: int,
-                 max_size: int, texels_per_metre: float | None = None, resolution: int | None = None) -> AtlasLayout:
+@dataclass(frozen=True)
+class AtlasSize:
+    """How large a lightmap's pages are: ``resolution`` > 0 asks for one square page of that many texels a side,
+    filled by the largest density that fits it; else the pages are as large as ``texels_per_metre`` needs, at most
+    ``max_size`` texels a side, as many as needed. ``padding``: texels between charts and around blocks."""
+
+    texels_per_metre: float
+    resolution: int
+    padding: int
+    max_size: int
+
+    def existing_uv_side(self, areas_m2: np.ndarray, areas_uv: np.ndarray) -> int:
+        """The square page side for objects baked on their own UV maps ((n,) surface areas in m^2 and UV areas in
+        units of the square): the resolution asked for, or the side at which the object that needs most gets the
+        density (at least 8 texels, at most the maximum size)."""
+        if self.resolution:
+            return self.resolution
+        need = self.texels_per_metre * np.sqrt(areas_m2 / np.maximum(areas_uv, 1e-12)).max()
+        return int(np.clip(np.ceil(need), 8, self.max_size))
+
+
+def atlas_size(texels_per_metre: float, resolution: int, preset_texels_per_metre: float, padding: int,
+               max_size: int) -> AtlasSize:
+    """The one place a lightmap's size is decided, from a user's settings: a density (texels_per_metre > 0) or a
+    resolution (> 0), never both; neither takes the preset's density. Raises SettingsError naming the settings
+    that conflict."""
+    if texels_per_metre > 0 and resolution > 0:
+        raise SettingsError(f"The lightmap has both a texel density ({texels_per_metre:g} per metre) and a "
+                            f"resolution ({resolution}); set one of them to 0.")
+    if resolution > max_size:
+        raise SettingsError(f"The lightmap resolution {resolution} is above the maximum size {max_size}; raise "
+                            "the maximum size or lower the resolution.")
+    if padding < 1:
+        raise SettingsError(f"The lightmap padding must be at least 1 texel, got {padding}.")
+    density = texels_per_metre if texels_per_metre > 0 else preset_texels_per_metre
+    return AtlasSize(float(density), int(resolution), int(padding), int(max_size))
+
+
+def uv_area(corner_uv: np.ndarray) -> float:
+    """The summed area of (t, 3, 2) UV triangles, in units of the whole UV square."""
+    return float(triangle_areas(np.pad(corner_uv, [(0, 0), (0, 0), (0, 1)])).sum())
+
+
+def modifier_uv_problem(rendered_uv: np.ndarray | None, mesh_uv: np.ndarray, rendered_m2: float,
+                        uv_per_m2: float) -> str | None:
+    """Why an object's lightmap UVs, as its topology-changing modifiers carry them to the rendered mesh
+    ((t, 3, 2), or None where they drop the UV map), cannot be baked, or None: the modifiers drop the UV map;
+    repeat it so that copies overlap (the rendered UV area exceeds the mesh's ``mesh_uv`` by over 10%); or squash
+    it (under a quarter of the UV area its rendered surface of ``rendered_m2`` needs at ``uv_per_m2``)."""
+    if rendered_uv is None:
+        return "its modifiers do not keep UV maps"
+    if uv_area(rendered_uv) > 1.1 * uv_area(mesh_uv):
+        return "its modifiers repeat its UV map (as Array, Mirror and Solidify do), so copies would share texels"
+    if uv_area(rendered_uv) < 0.25 * rendered_m2 * uv_per_m2:
+        return "its modifiers squash its UV map (as Wireframe does), so its faces would cover no texels"
+    return None
+
+
+def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: list[int],
+                 size: AtlasSize) -> AtlasLayout:
     """Unwrap each mesh once and give each object a copy of its mesh's block.
 
     ``meshes``: (positions_m, triangle_vertices) per distinct mesh; ``mesh_of_object``: the mesh of each object.
-    Either the density is given (pages of up to ``max_size`` texels a side, as many as needed), or a square
-    ``resolution`` that the density is chosen to fill in one page (largest density, in steps of 10%, that fits)."""
-    if texels_per_metre is not None:
-        return _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre)
-    if not resolution or resolution <= 0:
-        raise SettingsError("Give the lightmap either a texel density or a resolution.")
+    Either pages of up to ``size.max_size`` texels a side at the size's density, as many as needed, or one square
+    page of ``size.resolution`` that the density is chosen to fill (largest density, in steps of 10%, that fits)."""
+    if not size.resolution:
+        return _layout(meshes, mesh_of_object, size.padding, size.max_size, size.texels_per_metre)
+    resolution, padding_texels = size.resolution, size.padding
     area_m2 = sum(float(triangle_areas(positions[triangles]).sum()) for positions, triangles in
                   (meshes[index] for index in mesh_of_object))
     density = np.sqrt(0.5 * resolution ** 2 / max(area_m2, 1e-12))
@@ -139,7 +196,7 @@ def overlapping_share(corner_uv: np.ndarray, width: int, height: int) -> float:
     for a mirrored copy on the same UVs): one minus the texel centres its faces cover over the texels their areas
     add up to. Chart borders cost up to about one texel row per chart, so small shares are discretisation."""
     texels = rasterize(corner_uv, width, height)
-    faces_texels = triangle_areas(np.pad(corner_uv, [(0, 0), (0, 0), (0, 1)])).sum() * width * height
+    faces_texels = uv_area(corner_uv) * width * height
     return float(max(0.0, 1.0 - texels.centre_inside.sum() / max(faces_texels, 1e-12)))
 
 

@@ -7,7 +7,7 @@ call. Everything is deterministic for a given scene, settings and seed. Two fami
   linked hierarchically to a cluster tree (core.clusters, core.cluster_tree, core.links, core.hierarchical);
 - "progressive" and "direct" (the classic methods, for small scenes): every receiving triangle is cut into
   patches and elements (core.mesh), with ray-cast or hemicube form-factor rows, adaptive meshing and near-field
-  links (core.shooting, core.solver, core.adaptive, core.nearfield).
+  links (core.formfactor_rows, core.solver, core.adaptive, core.nearfield).
 """
 from __future__ import annotations
 
@@ -19,11 +19,11 @@ import numpy as np
 from . import adaptive
 from .cluster_tree import build_tree
 from .clusters import cluster_pieces
-from .direct import DirectLighting
+from .direct_light import DirectLighting
 from .errors import SettingsError
 from .hierarchical import (HierarchicalState, Receivers, live_side_test, node_deviation, node_radiosity,
                            sample_exposure, side_direct_irradiance, solve)
-from .lights import direct_irradiance
+from .analytic_lights import direct_irradiance
 from .links import OPENING, LinkSources, build_links, covered_share, refine_links
 from .memory import check_bake_memory, default_limit_gb
 from .mesh import build_mesh, bury, elements_of, node_reflectance
@@ -31,9 +31,9 @@ from .nearfield import near_field_irradiance
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .raycast import RayCaster
 from .scene import MAX_REFLECTANCE, Scene
-from .shooting import HemicubeRows, Patches, RayCastRows
+from .formfactor_rows import HemicubeRows, Patches, RayCastRows
 from .solution import FRONT, SolvedElements, Solution
-from .solver import FormFactors, RadiosityState, patch_mean, solve_direct, solve_progressive
+from .solver import FormFactorCache, RadiosityState, patch_mean, solve_direct, solve_progressive
 
 RAY_OFFSET_FRACTION = 2e-5
 REFINEMENT_TOLERANCE = 0.03  # a link is refined where its error bound exceeds 3% of the receiver's irradiance
@@ -43,7 +43,8 @@ SOLVERS = ("hierarchical", "progressive", "direct")
 
 @dataclass(frozen=True)
 class BakeSettings:
-    """Settings of a bake; lengths in metres.
+    """Settings of a bake; lengths in metres. The defaults suit a scene of a few metres, for tests and scripts;
+    the add-on always passes its own, scaled to the scene (radiosity_addon/presets.py).
 
     element_size_m: target edge length of receiving elements.
     patch_size_m: of the classic solvers' shooting patches, and of the pieces emissive surfaces are sampled by.
@@ -207,7 +208,7 @@ def _classic(scene, settings, caster, offset, timer, progress, cancelled):
     timer.lap("direct light")
     state = RadiosityState.start(elements, patches, direct)
     threads = settings.threads or os.cpu_count() or 1
-    factors = FormFactors(rows, len(patches.area_m2), int(settings.form_factor_memory_mb * 2 ** 20), threads)
+    factors = FormFactorCache(rows, len(patches.area_m2), int(settings.form_factor_memory_mb * 2 ** 20), threads)
     _solve(state, factors, settings, caster, progress, cancelled)
     timer.lap("solve")
     criteria = adaptive.RefinementCriteria(settings.adaptive_threshold, settings.min_element_size_m)

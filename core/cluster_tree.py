@@ -8,7 +8,7 @@ six classes, one per axis and sign), and its radiosity is kept per class: a rece
 mean of the slab's underside, not of its top. A node stands for its elements when seen from far enough away
 (core.links); each of its classes is then cut, in tree order, into ``NODE_SAMPLES`` parts of equal exposed area,
 each seen from the receiver at its area-weighted centroid and mean normal (a midpoint rule, second-order
-accurate, where one element's point in each part was first-order and 3% off on the Cornell box's blocks) and
+accurate, where one element's point in each part would be first-order) and
 tested for visibility with one shadow ray to the element sample at its middle: a node of a hundred elements costs
 as few shadow rays as one element.
 """

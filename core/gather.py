@@ -8,7 +8,7 @@ With cosine-weighted directions (pdf cos(theta) / pi) the indirect irradiance is
 
 where B_r = rho H is the reflected radiosity at the hit (a diffuse surface's radiance is B / pi), and a ray that
 escapes brings the world's radiance (pi L_world in place of B_r: the sky by the gather's many cosine-weighted rays
-rather than the direct light's few, as Cycles traces it by BSDF samples). Emission is left out: core.direct adds
+rather than the direct light's few, as Cycles traces it by BSDF samples). Emission is left out: core.direct_light adds
 it exactly, with shadow rays. A ray that lands on the back of a face
 sees the back side's radiosity (surfaces reflect from both sides, as in Cycles); unsolved ("shadow only")
 surfaces return nothing, and so do directions below the face's own plane when the cosine lobe is turned by a
@@ -27,9 +27,7 @@ RAYS_PER_CHUNK = 1 << 20
 FREE_PATH_RAYS = 1 << 14
 # A final gather pays where the surfaces a point sees lie closer than this many elements (on the mean): there,
 # irradiance interpolated between elements blurs what the elements are too coarse to resolve (an arcade's ceiling
-# 3 m above a floor, with 2.5 m elements). The sample rooms' mean free path is 4 (Draft) to 12 (High) elements,
-# where interpolation measured closer to Cycles; the 250k courtyard's is 1.2 (Draft) and 2.4 (Medium), where the
-# gather did (docs/benchmarks.md).
+# 3 m above a floor, with 2.5 m elements). Where the threshold comes from: docs/benchmarks.md, "Presets".
 GATHER_BELOW_ELEMENTS = 3.0
 
 

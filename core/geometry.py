@@ -1,4 +1,4 @@
-"""Triangle maths shared by every stage: areas, normals, tangent frames and uniform subdivisions."""
+"""Triangle maths shared by every stage: areas, normals, tangent frames, uniform subdivisions and insets."""
 from __future__ import annotations
 
 from functools import lru_cache
@@ -87,3 +87,12 @@ def direction_classes(normals: np.ndarray) -> np.ndarray:
     axis = np.argmax(np.abs(normals), axis=-1)
     negative = np.take_along_axis(normals, axis[..., None], axis=-1)[..., 0] < 0
     return 2 * axis + negative
+
+
+def inset(points: np.ndarray, centroids: np.ndarray, distance_m: float) -> np.ndarray:
+    """Points moved ``distance_m`` (at most half way) towards their triangle's centroid: a point on a crease
+    (a texel centre on the edge where a floor meets a wall) must not start its rays inside the other surface,
+    nor sit in the plane of a neighbouring emitter, where the point-to-polygon factor degenerates."""
+    towards = centroids - points
+    length = lengths(towards)[..., None]
+    return points + towards * np.minimum(distance_m, 0.5 * length) / np.maximum(length, 1e-300)

@@ -1,7 +1,7 @@
 """Hierarchical radiosity with clustering over face clusters, two-sided: the default solver, for any scene size.
 
 1. Elements (core.clusters) have two sides. A side whose sample points all lie inside closed geometry (the inside
-   of a closed prop, a floor under a box: core.texels.inside_closed_geometry along that side's normal) or repeat
+   of a closed prop, a floor under a box: core.surface_probes.inside_closed_geometry along that side's normal) or repeat
    another face's side (a two-sided sheet made of two copies of a face: core.geometry.duplicate_sides), or whose
    hemisphere meets no live side (core.links.covered_share: the bottom of a box resting on a floor), sends no
    light (the first two are dead: they neither receive nor send). Every other side reflects, with the element's
@@ -29,14 +29,14 @@ from .cluster_tree import ClusterTree
 from .clusters import SAMPLES, FaceClusters
 from .errors import BakeCancelled
 from .geometry import duplicate_sides, triangle_unit_normals
-from .lights import direct_irradiance
+from .analytic_lights import direct_irradiance
 from .links import Links, Transfer
 from .mesh import ElementMesh
 from .progress import Progress, never_cancelled, no_progress
 from .raycast import RayCaster
 from .scene import Scene
 from .solver import ConvergenceStep
-from .texels import inside_closed_geometry
+from .surface_probes import inside_closed_geometry
 
 SIDES = np.array([1.0, -1.0])  # front, back: the side's normal is SIDES[side] x the element's normal
 
@@ -240,10 +240,8 @@ class _BalancedTransfer:
     what they link to): the energy balance every exact solve satisfies (Cohen & Wallace 1993, ch. 4). A cluster's
     mean radiosity times its form factor misses the correlation between the two (a lamp's pool of light is also
     the part of a wall nearest to most receivers), which left a closed room lit by a point light 4.5% short of its
-    closed-form indirect light; exact links (to one-piece elements) are left as they are. (Balanced against the
-    ray-measured covered share instead, whatever part of the hemisphere the links miss was spread over every
-    receiver: on the courtyard the links cover 5.4% less than the rays, and that scaled all indirect light up by
-    9%, the shaded galleries' too.)"""
+    closed-form indirect light; exact links (to one-piece elements) are left as they are. Why the balance is
+    against the links' own factors and not a ray-measured covered share: docs/benchmarks.md, History."""
 
     def __init__(self, state: HierarchicalState, exact: Transfer, sampled: Transfer, area: np.ndarray):
         self.state, self.exact, self.sampled, self.area = state, exact, sampled, area

@@ -9,19 +9,11 @@ reaches a file, nor a value a half-float EXR cannot hold (above HALF_MAX: write 
 from __future__ import annotations
 
 import numpy as np
+import OpenImageIO as oiio
 
 from .errors import OutputError
 
 HALF_MAX = 65504.0  # the largest finite half float (IEEE 754 binary16)
-
-
-def _oiio():
-    try:
-        import OpenImageIO
-    except ImportError as error:  # Blender ships it; a bare Python needs `pip install OpenImageIO`
-        raise OutputError("OpenImageIO is not available to write lightmap files "
-                         "(Blender ships it; in a plain Python: pip install OpenImageIO).") from error
-    return OpenImageIO
 
 
 def write_exr(path: str, light: np.ndarray, half: bool = True, metadata: dict[str, str] | None = None) -> None:
@@ -31,14 +23,13 @@ def write_exr(path: str, light: np.ndarray, half: bool = True, metadata: dict[st
     if half and float(np.max(light, initial=0.0)) > HALF_MAX:
         raise OutputError(f"Cannot write '{path}' as half floats: its light reaches {float(np.max(light)):.4g}, "
                           f"above {HALF_MAX:g}; write 32-bit floats.")
-    oiio = _oiio()
     pixels = np.ascontiguousarray(light[::-1], dtype=np.float32)
     spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], "half" if half else "float")
     spec.attribute("compression", "zip")
     spec.attribute("DateTime", "")  # OpenImageIO stamps the time otherwise; a bake must be byte-reproducible
     for key, value in (metadata or {}).items():
         spec.attribute(key, str(value))
-    _write(oiio, path, spec, pixels)
+    _write(path, spec, pixels)
 
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
@@ -53,18 +44,16 @@ def write_png(path: str, light: np.ndarray, exposure_stops: float = 0.0,
     if not np.isfinite(exposure_stops):
         raise OutputError(f"Cannot write '{path}': the exposure must be a finite number of stops, "
                           f"got {exposure_stops}.")
-    oiio = _oiio()
     scaled = np.clip(light[::-1] * 2.0 ** exposure_stops, 0.0, 1.0)
     pixels = np.ascontiguousarray(np.round(srgb_encode(scaled) * 255.0), dtype=np.uint8)
     spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], "uint8")
     for key, value in (metadata or {}).items():
         spec.attribute(key, str(value))
-    _write(oiio, path, spec, pixels)
+    _write(path, spec, pixels)
 
 
 def read_image(path: str) -> np.ndarray:
     """(h, w, c) float32 pixels of an image file, row 0 at the bottom (for checks, tests and benchmarks)."""
-    oiio = _oiio()
     source = oiio.ImageInput.open(path)
     if source is None:
         raise OutputError(f"Cannot read image '{path}': {oiio.geterror()}")
@@ -91,7 +80,7 @@ def _check_finite(path: str, light: np.ndarray) -> None:
                           "non-finite values.")
 
 
-def _write(oiio, path: str, spec, pixels: np.ndarray) -> None:
+def _write(path: str, spec, pixels: np.ndarray) -> None:
     out = oiio.ImageOutput.create(path)
     if out is None or not out.open(path, spec):
         message = oiio.geterror() or (out.geterror() if out is not None else "")

@@ -15,8 +15,9 @@ from .errors import BakeCancelled, SettingsError
 from .gather import final_gather, gather_pays
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import triangle_areas
-from .texels import (Texels, face_to_face_contact, inset, inside_closed_geometry, push_out_of_geometry, rasterize,
-                     sample_points, subtexel_barycentrics)
+from .geometry import inset
+from .surface_probes import face_to_face_contact, inside_closed_geometry, push_out_of_geometry
+from .texels import Texels, rasterize, sample_points, subtexel_barycentrics
 
 INDIRECT_METHODS = ("auto", "gather", "interpolate")
 # Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
@@ -32,8 +33,9 @@ class LightmapSettings:
     k, so direct light is averaged over k x k points of each texel's footprint, each with the bake's light samples
     per edge divided by k (rounded up): about the bake's shadow rays per texel, spread over its footprint, which on
     the sample scenes measured closer to Cycles than as many rays from the texel centre (docs/benchmarks.md).
-    dilation_texels: how far values are grown into the empty texels around charts. seed: of the stratified gather
-    directions."""
+    dilation_texels: how far values are grown into the empty texels around charts (the add-on: its padding). seed:
+    of the stratified gather directions. The default method is the gather, the reference; the add-on's presets
+    use "auto"."""
 
     indirect: str = "gather"
     gather_samples_per_edge: int = 8

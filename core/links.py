@@ -23,10 +23,8 @@ class of its outward normal), and the gather multiplies each by the node's mean 
 
 No receiver sees more than its hemisphere, so a row is capped to sum to one. The energy the sampled links may
 miss or add is balanced in the solve (core.hierarchical), against each receiver's ``covered`` share, the share of
-its hemisphere that solved surfaces cover, measured with ``COVERAGE_SAMPLES^2`` stratified cosine-weighted rays.
-(Scaling each row to its own covered share was tried and dropped: a few percent of the hemisphere open near the
-horizon is often missed by all 64 rays, and rows made mostly of exact near links then had their sampled far links
-inflated by 40%.)
+its hemisphere that solved surfaces cover, measured with ``COVERAGE_SAMPLES^2`` stratified cosine-weighted rays
+(what was tried instead: docs/benchmarks.md, History).
 """
 from __future__ import annotations
 

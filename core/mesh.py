@@ -19,7 +19,7 @@ import numpy as np
 from .geometry import triangle_areas, triangle_unit_normals, uniform_subdivision
 from .raycast import RayCaster
 from .scene import MAX_REFLECTANCE, Scene
-from .texels import inside_closed_geometry
+from .surface_probes import inside_closed_geometry
 
 # Children of a 4-way split of (a, b, c), as barycentric combinations of the parent's corners:
 # three corner triangles, then the middle one (ab, bc, ca).

@@ -4,8 +4,8 @@ Substructuring (Cohen et al. 1986) lets patch j send one radiosity, the area mea
 receiving element: F(e -> j) mean_j(B). That is right when patch j is far from e or evenly lit; it is wrong when
 e is close to a patch that holds a shadow edge, because e then sees mostly the near part of the patch. Under a ball
 resting on the floor, the floor patch around the contact is half in the ball's shadow, half in the sun, and the
-ball's underside sees mostly the shadowed half: with the patch mean it came out too bright (a ball on a sunlit
-floor, Medium: 12.5% relative RMSE from Cycles' lightmap; 5.9% with the links below).
+ball's underside sees mostly the shadowed half: with the patch mean it came out too bright (docs/benchmarks.md,
+History: "Lightmaps against Cycles", the ball).
 
 Hierarchical radiosity (Hanrahan, Salzman & Aupperle 1991) refines such links to the level of the elements.
 Here, once the solve and its adaptive passes are done, every element e and every near, varying patch j exchange
@@ -30,7 +30,7 @@ from .mesh import Elements
 from .progress import Progress, never_cancelled, no_progress
 from .ragged import concatenated_ranges
 from .raycast import RayCaster
-from .shooting import Patches
+from .formfactor_rows import Patches
 
 NEAR_RADII = 3.0
 VARIATION = 0.05

@@ -3,7 +3,7 @@
 The baked quantity is "diffuse light without albedo": irradiance / pi (W m^-2 sr^-1, scene-linear), what Cycles'
 Diffuse bake with Direct + Indirect and no Color stores (docs/units.md). A solve leaves, for every element side,
 the irradiance at its receiver point (``SolvedElements``). At any surface point the light is the direct part,
-traced there with shadow rays (core.direct), plus the indirect part interpolated from the receivers around it
+traced there with shadow rays (core.direct_light), plus the indirect part interpolated from the receivers around it
 (core.interpolation: a kernel over receivers the point sees, so no light leaks through walls).
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .direct import DirectLighting
+from .direct_light import DirectLighting
 from .geometry import triangle_unit_normals
 from .interpolation import ReceiverField
 from .mesh import ElementMesh, weld_vertices
@@ -20,7 +20,8 @@ from .raycast import RayCaster
 from .scene import Scene
 from .solver import ConvergenceStep
 from .terminator import ShadowLift
-from .texels import inset, inside_closed_geometry
+from .geometry import inset
+from .surface_probes import inside_closed_geometry
 
 FRONT = 0
 UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point to its triangle's centroid

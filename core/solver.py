@@ -29,7 +29,7 @@ import numpy as np
 from .errors import BakeCancelled, SceneError
 from .mesh import Elements
 from .progress import Progress, never_cancelled, no_progress
-from .shooting import FormFactorMethod, Patches, row_blocks
+from .formfactor_rows import FormFactorCache, Patches, exposed_area, patch_mean
 
 
 @dataclass
@@ -40,84 +40,6 @@ class ConvergenceStep:
     residual: float
     seconds: float
     rays: int
-
-
-class FormFactors:
-    """Form factors known so far: the patch coupling F(i -> j) as (P, P) float32 columns, filled as patches
-    shoot, and, while n P float32 fit in ``row_budget_bytes``, the element rows F(e -> j) as an (n, P) matrix."""
-
-    def __init__(self, method: FormFactorMethod, patch_count: int, row_budget_bytes: int, threads: int):
-        self.method, self.threads, self.row_budget_bytes = method, threads, row_budget_bytes
-        self.coupling = np.zeros((patch_count, patch_count), dtype=np.float32)
-        self.known = np.zeros(patch_count, dtype=bool)
-        self.rows: np.ndarray | None = None
-        self.rows_known = np.zeros(patch_count, dtype=bool)
-
-    def compute(self, patches: np.ndarray, elements: Elements, patch_table: "Patches",
-                cancelled: Callable[[], bool] = never_cancelled) -> None:
-        """Compute element rows of the given patches (all cores); keep their coupling columns and rows."""
-        self._allocate_rows(len(elements.node))
-        for block, rows in row_blocks(self.method, patches, elements, self.threads):
-            if cancelled():
-                raise BakeCancelled("Bake cancelled while computing form factors.")
-            self.coupling[:, block] = patch_mean(rows, elements, patch_table)
-            self.known[block] = True
-            if self.rows is not None:
-                self.rows[:, block] = rows
-                self.rows_known[block] = True
-
-    def enclosure(self, area: np.ndarray) -> float:
-        """Area-weighted mean, over the patches that have shot, of the share of their light landing on the scene:
-        sum_i F(i -> j) A_i / A_j by reciprocity from patch j's coupling column (1 if none has shot); ``area``
-        (P,) are the patches' exposed areas."""
-        if not self.known.any():
-            return 1.0
-        column_sums = (self.coupling[:, self.known].astype(np.float64) * area[:, None]).sum(axis=0)
-        share = np.clip(column_sums / np.maximum(area[self.known], 1e-300), 0.0, 1.0)
-        return float((share * area[self.known]).sum() / area[self.known].sum())
-
-    def gather(self, weights: np.ndarray, elements: Elements, cancelled: Callable[[], bool] = never_cancelled,
-               store: bool = True):
-        """(n, 3) sum_j F(e -> j) weights_j over patches with non-zero weight, from stored or fresh rows.
-
-        With ``store`` False the elements are a subset (not the current set) and rows are neither read nor kept.
-        """
-        store = store and self.rows is not None
-        active = np.flatnonzero(np.abs(weights).sum(axis=1) > 0)
-        stored = active[self.rows_known[active]] if store else active[:0]
-        total = self.rows[:, stored] @ weights[stored] if len(stored) else np.zeros((len(elements.node), 3))
-        for block, rows in row_blocks(self.method, np.setdiff1d(active, stored), elements, self.threads):
-            if cancelled():
-                raise BakeCancelled("Bake cancelled while gathering light.")
-            total += rows @ weights[block]
-            if store:
-                self.rows[:, block] = rows
-                self.rows_known[block] = True
-        return total
-
-    def refine(self, old_position: np.ndarray, refined: Elements, cancelled: Callable[[], bool] = never_cancelled):
-        """Carry stored rows over to a refined element set; ``old_position`` is each refined element's position
-        in the old set, -1 for new ones, whose stored rows are computed here."""
-        if self.rows is None:
-            return
-        kept, new = old_position >= 0, np.flatnonzero(old_position < 0)
-        rows = np.zeros((len(old_position), self.rows.shape[1]), dtype=np.float32)
-        rows[kept] = self.rows[old_position[kept]]
-        self.rows = rows
-        subset = _subset(refined, new)
-        for block, block_rows in row_blocks(self.method, np.flatnonzero(self.rows_known), subset, self.threads):
-            if cancelled():
-                raise BakeCancelled("Bake cancelled during adaptive meshing.")
-            self.rows[np.ix_(new, block)] = block_rows
-
-    def _allocate_rows(self, count: int) -> None:
-        size = count * len(self.known) * 4
-        if self.rows is None and size <= self.row_budget_bytes:
-            self.rows = np.zeros((count, len(self.known)), dtype=np.float32)
-
-
-def _subset(elements: Elements, positions: np.ndarray) -> Elements:
-    return Elements(**{name: value[positions] for name, value in vars(elements).items()})
 
 
 @dataclass
@@ -170,28 +92,11 @@ class RadiosityState:
         return enclosure * unshot_mean / (1.0 - rho_avg * enclosure)
 
 
-def patch_mean(values: np.ndarray, elements: Elements, patches: Patches) -> np.ndarray:
-    """Mean of per-element values (n, c) over each patch, weighted by exposed area: (P, c) (0 where nothing of
-    the patch is exposed)."""
-    order = np.argsort(elements.patch, kind="stable")
-    patch_of = elements.patch[order]
-    starts = np.flatnonzero(np.r_[True, patch_of[1:] != patch_of[:-1]])
-    sums = np.add.reduceat(values[order] * elements.exposed_m2[order, None], starts, axis=0)
-    out = np.zeros((len(patches.area_m2), values.shape[1]), dtype=np.result_type(values, np.float64))
-    out[patch_of[starts]] = sums
-    return out / np.maximum(exposed_area(elements, patches), 1e-300)[:, None]
-
-
-def exposed_area(elements: Elements, patches: Patches) -> np.ndarray:
-    """(P,) sum of the exposed areas of each patch's elements."""
-    return np.bincount(elements.patch, weights=elements.exposed_m2, minlength=len(patches.area_m2))
-
-
 def _residual(unshot: np.ndarray, patch_area: np.ndarray, injected_power_w: float) -> float:
     return float((np.abs(unshot) * patch_area[:, None]).sum() / injected_power_w) if injected_power_w > 0 else 0.0
 
 
-def solve_progressive(state: RadiosityState, factors: FormFactors, residual_threshold: float, max_shots: int,
+def solve_progressive(state: RadiosityState, factors: FormFactorCache, residual_threshold: float, max_shots: int,
                       rays: Callable[[], int] = lambda: 0, progress: Progress = no_progress,
                       cancelled: Callable[[], bool] = never_cancelled) -> RadiosityState:
     """Shoot the patch with the most unshot power until the residual is below ``residual_threshold``."""
@@ -226,7 +131,7 @@ def solve_progressive(state: RadiosityState, factors: FormFactors, residual_thre
     return state
 
 
-def solve_direct(state: RadiosityState, factors: FormFactors, max_patches: int = 6000,
+def solve_direct(state: RadiosityState, factors: FormFactorCache, max_patches: int = 6000,
                  cancelled: Callable[[], bool] = never_cancelled) -> RadiosityState:
     """Gaussian elimination of (I - rho F) B = E + rho H_direct at patch level; then every element gathers."""
     elements, patches = state.elements, state.patches

@@ -21,7 +21,13 @@ import sys
 import threading
 import time
 
-from .presets import PRESETS, UserSettings
+import bpy
+
+from ..core import BakeCancelled, OutputError, SceneError, SettingsError
+from ..core.atlas import atlas_size
+from ..core.staged_files import StagedFiles
+from . import job as bake_job
+from .settings import BY_NAME, SETTINGS, Setting, UserSettings
 
 EXIT_BAD_ARGUMENT, EXIT_INPUT, EXIT_SCENE, EXIT_OUTPUT, EXIT_OTHER = 2, 3, 4, 5, 1
 EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + the signal's number, as shells report them
@@ -51,6 +57,8 @@ def _number(kind, low: float, high: float):
 
 
 def build_parser(prog: str) -> argparse.ArgumentParser:
+    """The command line: IN.blend, -o, --overwrite and --report, then one option per setting of the table
+    (settings.SETTINGS), with its bounds as a range."""
     parser = argparse.ArgumentParser(
         prog=prog, description="Bake diffuse light by radiosity into colour attributes and/or lightmap textures "
         "of a .blend file. Values are irradiance / pi, as Cycles' Diffuse bake with Direct + Indirect and no Color "
@@ -60,56 +68,39 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--overwrite", action="store_true", help="allow OUT.blend to be IN.blend (replaced whole, "
                         "only when the bake succeeds; the old file is kept as OUT.blend1)")
     parser.add_argument("--report", metavar="REPORT.json", help="write a JSON report of outputs and timings")
-    parser.add_argument("--target", choices=["vertex_colors", "lightmap", "both"], default="vertex_colors",
-                        help="colour attributes, a lightmap texture on a new UV map, or both (default: vertex_colors)")
-    parser.add_argument("--quality", choices=[q.lower() for q in PRESETS] + ["custom"], default="medium",
-                        help="preset; 'custom' uses the options below (default: medium)")
-    parser.add_argument("--element-size", type=_number(float, 1e-3, 1e3), default=0.25,
-                        help="element edge length, m (custom)")
-    parser.add_argument("--patch-size", type=_number(float, 1e-3, 1e3), default=1.0,
-                        help="patch edge length, m (custom)")
-    parser.add_argument("--adaptive-passes", type=_number(int, 0, 8), default=1,
-                        help="adaptive meshing passes (custom)")
-    parser.add_argument("--residual", type=_number(float, 1e-6, 1.0), default=0.01,
-                        help="stop at this unshot power share (custom)")
-    parser.add_argument("--light-samples", type=_number(int, 1, 64), default=4,
-                        help="shadow rays per element: this squared")
-    parser.add_argument("--form-factors", choices=["raycast", "hemicube"], default="raycast")
-    parser.add_argument("--attribute", default="Radiosity", help="colour attribute name (default: Radiosity)")
-    parser.add_argument("--radiosity-mesh", action="store_true", help="also add the element mesh as an object")
-    parser.add_argument("--make-local", action="store_true",
-                        help="make objects linked from libraries local, with their meshes, so that they hold their "
-                             "bake (default: they light the scene but are not baked)")
-    density = parser.add_mutually_exclusive_group()
-    density.add_argument("--texels-per-meter", type=_number(float, 1e-3, 1e4),
-                         help="lightmap density (default: from --quality)")
-    density.add_argument("--resolution", type=_number(int, 16, 16384),
-                         help="square lightmap size in texels; the density fills it")
-    parser.add_argument("--padding", type=_number(int, 1, 64), default=4,
-                        help="lightmap texels between charts (default: 4)")
-    parser.add_argument("--max-size", type=_number(int, 64, 16384), default=4096,
-                        help="texels a side of a lightmap image; more images when the density needs them "
-                             "(default: 4096)")
-    parser.add_argument("--indirect", choices=["auto", "interpolate", "gather"], default="auto",
-                        help="lightmap indirect light: interpolated from the elements, a final gather per texel, or "
-                             "auto: the gather where the elements are coarse next to the distances between surfaces "
-                             "(custom quality; the presets use auto)")
-    parser.add_argument("--gather-samples", type=_number(int, 1, 64), default=8,
-                        help="final-gather rays per texel: this squared (custom quality with --indirect gather)")
-    parser.add_argument("--uv-map", default="Lightmap", help="name of the lightmap UV map to make")
-    parser.add_argument("--existing-uv-map", action="store_true",
-                        help="bake onto the UV map --uv-map names, which the objects already have (not changed)")
-    parser.add_argument("--lightmap-image", default="Radiosity Lightmap", help="lightmap image and file name")
-    parser.add_argument("--lightmap-dir", metavar="DIR",
-                        help="folder for the lightmap .exr (default: the folder of OUT.blend)")
-    parser.add_argument("--float", action="store_true", help="32-bit float EXR (default: 16-bit half)")
-    parser.add_argument("--png-exposure", type=_number(float, -64, 64), metavar="STOPS",
-                        help="also write an 8-bit sRGB PNG of the lightmap x 2^STOPS (low dynamic range)")
-    parser.add_argument("--seed", type=_number(int, 0, 2 ** 31 - 1), default=0, help="seed of the stratified samples")
-    parser.add_argument("--max-memory-gb", type=_number(float, 0, 1 << 20), default=0.0,
-                        help="most memory the bake may use, GiB: a larger bake gets coarser elements or is refused "
-                             "before the heavy work (default 0: 75%% of this machine's memory)")
+    for setting in SETTINGS:
+        if setting.flag:
+            parser.add_argument(setting.flag, dest=setting.name, default=argparse.SUPPRESS, **_option(setting))
     return parser
+
+
+def _option(setting: Setting) -> dict:
+    """argparse keywords for one setting: a switch, a choice (enum identifiers in lower case) or a number in its
+    bounds; help gives the default (the bpy property's)."""
+    text = setting.help.replace("%", "%%")
+    if setting.kind is bool:
+        action = "store_false" if setting.negate else "store_true"
+        return {"action": action, "help": f"sets {setting.label} off: {text}" if setting.negate else text}
+    if setting.items:
+        return {"choices": [item[0].lower() for item in setting.items], "type": str.lower,
+                "help": f"{text} (default: {str(setting.default).lower()})"}
+    metavar = setting.flag.lstrip("-").upper().replace("-", "_")
+    if setting.kind is str:
+        return {"metavar": metavar, "help": f"{text} (default: {setting.default})"}
+    return {"type": _number(setting.kind, setting.low, setting.high), "metavar": metavar,
+            "help": f"{text} (default: {setting.default:g}; from {setting.low:g} to {setting.high:g})"}
+
+
+def user_settings(args: argparse.Namespace) -> UserSettings:
+    """UserSettings from parsed arguments: the options given, the table's defaults for the rest. An enum's
+    choice is matched to its identifier; --png-exposure also asks for the PNG."""
+    given = {name: value for name, value in vars(args).items() if name in BY_NAME}
+    for name, value in given.items():
+        items = {item[0].lower(): item[0] for item in BY_NAME[name].items}
+        given[name] = items.get(value, value)
+    if "lightmap_png_exposure" in given:
+        given["lightmap_png"] = True
+    return UserSettings(**given)
 
 
 def run(argv: list[str], prog: str = "radiosity_bake") -> int:
@@ -145,7 +136,6 @@ def _main_thread() -> bool:
 
 def _bake(args) -> dict:
     """The bake behind ``run``: every core error becomes a CommandError with its exit code."""
-    from ..core import BakeCancelled, OutputError, SceneError, SettingsError
     try:
         return _checked_bake(args)
     except SettingsError as error:
@@ -162,25 +152,14 @@ def _bake(args) -> dict:
 
 
 def _checked_bake(args) -> dict:
-    import bpy
-    from ..core.staged_files import StagedFiles
-    from . import job as bake_job
-    from .job import Outputs
-    from .lightmaps import LightmapOptions
-    folder = _check_arguments(args)
+    user = user_settings(args)
+    folder = _check_arguments(args, user)
     try:
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.input), load_ui=False)
     except RuntimeError as error:
         raise CommandError(EXIT_INPUT, f"cannot read {args.input}: {str(error).strip().splitlines()[-1]}")
-    user = UserSettings(args.quality.upper(), args.element_size, args.patch_size, args.adaptive_passes,
-                        args.residual, args.light_samples, args.form_factors, args.seed, args.gather_samples,
-                        args.texels_per_meter or 0.0, args.indirect, args.max_memory_gb)
-    lightmap = LightmapOptions(args.uv_map, args.lightmap_image, args.texels_per_meter, args.resolution,
-                               args.padding, args.max_size, half=not args.float, png_exposure=args.png_exposure,
-                               existing_uv_map=args.existing_uv_map)
-    outputs = Outputs(args.target.upper(), args.attribute, args.radiosity_mesh, lightmap, folder, args.make_local)
     started = time.perf_counter()
-    job = bake_job.prepare(bpy.context, user, outputs)
+    job = bake_job.prepare(bpy.context, user, folder)
     bake_job.solve(job, _progress_to_stderr(), lambda: False)
     with StagedFiles() as staged:
         report = bake_job.apply(job, staged)
@@ -196,9 +175,10 @@ def _checked_bake(args) -> dict:
     return report
 
 
-def _check_arguments(args) -> str:
-    """What argparse cannot check alone: the input file, the output against the input, the resolution against
-    the maximum size, and that every output folder is writable; returns the lightmaps' folder."""
+def _check_arguments(args, user: UserSettings) -> str:
+    """What argparse cannot check alone, before the input is read: the input file, the output against the input,
+    the lightmap's size settings, and that every output folder is writable; returns the lightmaps' absolute folder
+    (a leading // is the folder of OUT.blend)."""
     if os.path.isdir(args.input):
         raise CommandError(EXIT_INPUT, f"the input is a folder, not a .blend file: {args.input}")
     if not os.path.isfile(args.input):
@@ -206,15 +186,18 @@ def _check_arguments(args) -> str:
     if os.path.exists(args.output) and os.path.samefile(args.input, args.output) and not args.overwrite:
         raise CommandError(EXIT_BAD_ARGUMENT, f"the output is the input file {args.input}: pass --overwrite to "
                                               "replace it, or give another -o")
-    if args.resolution is not None and args.resolution > args.max_size:
-        raise CommandError(EXIT_BAD_ARGUMENT, f"--resolution {args.resolution} is above --max-size "
-                                              f"{args.max_size}: raise --max-size or lower the resolution")
-    folder = os.path.abspath(args.lightmap_dir or os.path.dirname(os.path.abspath(args.output)))
+    if user.lightmaps:
+        atlas_size(user.texels_per_metre, user.lightmap_resolution, 1.0, user.lightmap_padding,
+                   user.lightmap_max_size)  # raises SettingsError for settings that conflict
+    folder = user.lightmap_folder
+    if folder.startswith("//"):
+        folder = os.path.join(os.path.dirname(os.path.abspath(args.output)), folder[2:])
+    folder = os.path.abspath(folder)
     for path, what in ((args.output, "output"), (args.report, "report")):
         if path and not _writable(path):
             raise CommandError(EXIT_OUTPUT, f"cannot write the {what} file: {path} (missing or read-only folder, "
                                             "or not a regular file)")
-    if args.target != "vertex_colors" and not _writable(os.path.join(folder, "lightmap.exr")):
+    if user.lightmaps and not _writable(os.path.join(folder, "lightmap.exr")):
         raise CommandError(EXIT_OUTPUT, f"cannot write lightmaps into {folder} (missing or read-only folder)")
     return folder
 
@@ -222,7 +205,6 @@ def _check_arguments(args) -> str:
 def _save_blend(path: str) -> None:
     """Save the baked file as a copy at ``path`` (the session keeps its own file name; relative paths are
     remapped for ``path``'s folder, which is the target's)."""
-    import bpy
     try:
         bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
     except RuntimeError as error:
@@ -231,7 +213,6 @@ def _save_blend(path: str) -> None:
 
 def _check_blend(path: str) -> None:
     """Blender reads the saved file's list of objects back (a truncated file fails: 'Missing DNA block')."""
-    import bpy
     try:
         with bpy.data.libraries.load(path) as (source, _):
             names = list(source.objects)

@@ -11,48 +11,28 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import numpy as np
-
-from ..core import SceneError
+from ..core import BakeSettings, SceneError, bake
+from ..core.atlas import AtlasSize, uv_area
 from ..core.geometry import triangle_areas
+from ..core.lightmap import LightmapSettings, bake_lightmap
 from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory
 from ..core.staged_files import StagedFiles
 from .export import Export, export_scene, make_linked_local
-from .lightmaps import LightmapOptions, LightmapPlan, plan_lightmap, write_lightmap
-from .presets import UserSettings, bake_settings, lightmap_settings
+from .lightmaps import LightmapPlan, plan_lightmap, write_lightmap
+from .presets import bake_settings, lightmap_settings
+from .settings import UserSettings
 from .writeback import check_attribute_name_free, write_radiosity_mesh, write_vertex_colors
-
-TARGETS = ("VERTEX_COLORS", "LIGHTMAP", "BOTH")
-
-
-@dataclass(frozen=True)
-class Outputs:
-    """What a bake writes: target VERTEX_COLORS, LIGHTMAP or BOTH; the colour attribute's name; the radiosity
-    mesh object; the lightmap's options and folder ("" = pack into the .blend); make_local: make objects linked
-    from libraries (and linked meshes of library overrides) local so that they can hold their bake."""
-
-    target: str = "VERTEX_COLORS"
-    attribute: str = "Radiosity"
-    create_radiosity_mesh: bool = False
-    lightmap: LightmapOptions = LightmapOptions()
-    lightmap_folder: str = ""
-    make_local: bool = False
-
-    @property
-    def vertex_colors(self) -> bool:
-        return self.target in ("VERTEX_COLORS", "BOTH")
-
-    @property
-    def lightmaps(self) -> bool:
-        return self.target in ("LIGHTMAP", "BOTH")
-
 
 @dataclass
 class Job:
+    """A bake under way: the exported scene, the user's settings and the core's made from them, where lightmap
+    files go ("" = pack into the .blend), and what the solve produced."""
+
     export: Export
-    settings: object
-    outputs: Outputs
-    lightmap_settings: object = None
+    settings: BakeSettings
+    user: UserSettings
+    lightmap_folder: str
+    lightmap_settings: LightmapSettings | None = None
     lightmap_plan: LightmapPlan | None = None
     started: float = field(default_factory=time.perf_counter)
     solution: object = None
@@ -61,35 +41,35 @@ class Job:
     warnings: list = field(default_factory=list)
 
 
-def prepare(context, user: UserSettings, outputs: Outputs) -> Job:
-    if outputs.target not in TARGETS:
-        raise SceneError(f"Target must be one of {', '.join(TARGETS)}, got '{outputs.target}'.")
-    made_local = make_linked_local(context) if outputs.make_local else []
+def prepare(context, user: UserSettings, lightmap_folder: str) -> Job:
+    """Export the scene and plan the outputs of a bake of ``user``'s settings; lightmap files go into
+    ``lightmap_folder`` ("" = packed into the .blend)."""
+    made_local = make_linked_local(context) if user.make_local else []
     export = export_scene(context)
     export.warnings.extend(made_local)
     settings = bake_settings(user, export.scene.size_m)
-    if not any(item.writable for item in export.objects) and not outputs.create_radiosity_mesh:
+    if not any(item.writable for item in export.objects) and not user.create_radiosity_mesh:
         raise SceneError("Nothing to bake: no visible mesh object is set to 'Bake'.")
-    if outputs.vertex_colors:
-        check_attribute_name_free(export, outputs.attribute)
-    job = Job(export, settings, outputs)
+    if user.vertex_colors:
+        check_attribute_name_free(export, user.attribute_name)
+    job = Job(export, settings, user, lightmap_folder)
     limit_gb = user.max_memory_gb or default_limit_gb()
-    if outputs.lightmaps:
-        job.lightmap_settings, density = lightmap_settings(user, export.scene.size_m)
-        _check_texel_density(job, outputs.lightmap, density, limit_gb)
-        job.lightmap_plan = plan_lightmap(context, export, outputs.lightmap, density)
+    if user.lightmaps:
+        job.lightmap_settings, size = lightmap_settings(user, export.scene.size_m)
+        _check_texel_density(job, size, limit_gb)
+        job.lightmap_plan = plan_lightmap(context, export, user, size)
     _fit_to_memory(job, limit_gb)
     return job
 
 
-def _check_texel_density(job: Job, options: LightmapOptions, density: float, limit_gb: float) -> None:
+def _check_texel_density(job: Job, size: AtlasSize, limit_gb: float) -> None:
     """Refuse, before the atlas is unwrapped, a texel density whose texels alone would not fit the memory limit
     (the texels the surfaces cover at that density, twice that in the pages' images)."""
-    if options.resolution:
+    if size.resolution:
         return
     receivers = job.export.scene.triangles[~job.export.scene.casts_only]
-    covered = int(min(triangle_areas(receivers).sum() * (options.texels_per_metre or density) ** 2, 2 ** 60))
-    fit_to_memory(receivers, job.settings.element_size_m, limit_gb, min(covered, options.max_size ** 2), 2 * covered)
+    covered = int(min(triangle_areas(receivers).sum() * size.texels_per_metre ** 2, 2 ** 60))
+    fit_to_memory(receivers, job.settings.element_size_m, limit_gb, min(covered, size.max_size ** 2), 2 * covered)
 
 
 def _fit_to_memory(job: Job, limit_gb: float) -> None:
@@ -113,12 +93,6 @@ def _fit_to_memory(job: Job, limit_gb: float) -> None:
                             f"{estimate.peak_bytes / GIB:.1f} GiB now); raise the limit for finer indirect light.")
 
 
-def uv_area(corner_uv: np.ndarray) -> float:
-    """The summed area of (t, 3, 2) UV triangles, in units of the whole UV square."""
-    edges = corner_uv[:, 1:] - corner_uv[:, :1]
-    return float(0.5 * np.abs(edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 0, 1] * edges[:, 1, 0]).sum())
-
-
 def solve(job: Job, progress, cancelled) -> None:
     """The solve and the lightmap texels; an allocation that fails anyway (the estimate is not a promise) becomes
     a MemoryLimitError naming the limit to lower."""
@@ -133,8 +107,6 @@ def solve(job: Job, progress, cancelled) -> None:
 
 
 def _solve(job: Job, progress, cancelled) -> None:
-    from ..core import bake
-    from ..core.lightmap import bake_lightmap
     job.solution = bake(job.export.scene, job.settings, progress, cancelled)
     plan = job.lightmap_plan
     if plan is not None:
@@ -158,15 +130,15 @@ def apply(job: Job, staged: StagedFiles) -> dict:
     warnings = list(job.export.warnings) + job.warnings + list(job.solution.warnings)
     if job.lightmap_plan is not None:  # first: its files are what can still fail, before the .blend changes
         entries, more = write_lightmap(job.lightmap_plan, [page.light for page in job.lightmaps], _metadata(job),
-                                       job.outputs.lightmap_folder, staged)
+                                       job.lightmap_folder, staged)
         warnings += job.lightmap_plan.warnings + more
-    if job.outputs.vertex_colors:
-        objects, more = write_vertex_colors(job.export, job.solution, job.outputs.attribute)
+    if job.user.vertex_colors:
+        objects, more = write_vertex_colors(job.export, job.solution, job.user.attribute_name)
         warnings += more
     objects = _merge(objects, entries)
-    if job.outputs.create_radiosity_mesh:
-        obj = write_radiosity_mesh(job.solution, job.outputs.attribute)
-        objects.append({"name": obj.name, "color_attribute": job.outputs.attribute, "uv_map": None, "image": None,
+    if job.user.create_radiosity_mesh:
+        obj = write_radiosity_mesh(job.solution, job.user.attribute_name)
+        objects.append({"name": obj.name, "color_attribute": job.user.attribute_name, "uv_map": None, "image": None,
                         "resolution": None})
     solution = job.solution
     report = {

@@ -21,11 +21,13 @@ import bpy
 import numpy as np
 
 from ..core import OutputError, SceneError
-from ..core.atlas import AtlasLayout, layout_atlas, overlapping_share, pages_without_overlap
+from ..core.atlas import (AtlasLayout, AtlasSize, layout_atlas, modifier_uv_problem, overlapping_share,
+                          pages_without_overlap, uv_area)
 from ..core.geometry import triangle_areas
 from ..core.image_file import HALF_MAX, check_image, write_exr, write_png
 from ..core.staged_files import StagedFiles
 from .export import Export, ExportedObject, loop_triangles, world_positions
+from .settings import UserSettings
 
 OWNED_UV = "radiosity_lightmap_uv"
 OWNED_IMAGE = "radiosity_lightmap"
@@ -35,78 +37,57 @@ SELF_OVERLAP_WARNING = 0.1  # overlapping share of an existing UV map worth a wa
 NOTHING_TO_BAKE = "Nothing to bake into a lightmap: no visible mesh object is set to 'Bake'."
 
 
-@dataclass(frozen=True)
-class LightmapOptions:
-    """uv_map: name of the UV map to make; image_name: of the Blender image and its file; texels_per_metre or
-    resolution (one square atlas) sets the density (neither: the preset's); padding: texels between charts;
-    max_size: texels a side of an atlas page (more pages when the density needs them); half: 16-bit float EXR
-    (else 32-bit); png_exposure: also write an 8-bit sRGB PNG of the light x 2^stops
-    (core.image_file.write_png's documented encoding) for engines that want low dynamic range; existing_uv_map:
-    bake onto the UV map ``uv_map`` the objects already have instead of making one."""
-
-    uv_map: str = "Lightmap"
-    image_name: str = "Radiosity Lightmap"
-    texels_per_metre: float | None = None
-    resolution: int | None = None
-    padding: int = 4
-    max_size: int = 4096
-    half: bool = True
-    png_exposure: float | None = None
-    existing_uv_map: bool = False
-
-
 @dataclass
 class LightmapPlan:
-    """The objects and their atlas layout; per page, the solved scene triangles it holds and their UVs; per mesh,
-    the UV map to write ((t, 3) loops of the original mesh and their (t, 3, 2) UVs); per object, the UV offset of
-    its copy of a shared mesh's block (None for the mesh's first user)."""
+    """The objects and their atlas layout; per page, the solved scene triangles it holds and their UVs; the user's
+    settings (settings.UserSettings: UV map and image names, file format); per mesh, the UV map to write ((t, 3)
+    loops of the original mesh and their (t, 3, 2) UVs); per object, the UV offset of its copy of a shared mesh's
+    block (None for the mesh's first user)."""
 
     objects: list[ExportedObject]
     layout: AtlasLayout
     page_triangles: list[tuple[np.ndarray, np.ndarray]]
-    options: LightmapOptions
+    user: UserSettings
     mesh_uvs: dict[str, tuple[np.ndarray, np.ndarray]]
     uv_offsets: list[np.ndarray | None]
     warnings: list[str] = field(default_factory=list)
 
     @property
     def image_names(self) -> list[str]:
-        return [page_image_name(self.options.image_name, page) for page in range(self.layout.page_count)]
+        return [page_image_name(self.user.lightmap_image, page) for page in range(self.layout.page_count)]
 
 
 def page_image_name(image_name: str, page: int) -> str:
     return image_name if page == 0 else f"{image_name} {page + 1}"
 
 
-def plan_lightmap(context, export: Export, options: LightmapOptions, default_texels_per_metre: float) -> LightmapPlan:
+def plan_lightmap(context, export: Export, user: UserSettings, size: AtlasSize) -> LightmapPlan:
     """Unwrap and pack every baked mesh object; raises SceneError naming a mesh whose UV map name is taken.
 
     A mesh is unwrapped as its first user renders it when its modifiers keep the topology; otherwise its original
     mesh is unwrapped and the UV map reaches the rendered mesh through the modifiers, as any UV map does (what
     Cycles bakes too). Objects whose modifiers repeat the UVs (Array, Mirror, Solidify), drop or squash them would
     share or lack texels: they get no lightmap, with a warning naming them."""
-    density = options.texels_per_metre if options.texels_per_metre or options.resolution else \
-        default_texels_per_metre
-    if options.existing_uv_map:
-        return _plan_on_existing_uv_map(context, export, options, density)
-    objects = _lightmap_objects(export, options)
+    if user.lightmap_existing_uv:
+        return _plan_on_existing_uv_map(context, export, user, size)
+    objects = _lightmap_objects(export, user.lightmap_uv_map)
     warnings = []
     while True:
         if not objects:
             raise SceneError(" ".join([NOTHING_TO_BAKE] + warnings))
-        layout, mesh_uvs, uv_offsets = _unwrap(export, objects, options, density)
-        rendered_uv = _rendered_uvs(context, objects, layout, mesh_uvs, uv_offsets, options.uv_map)
+        layout, mesh_uvs, uv_offsets = _unwrap(export, objects, size)
+        rendered_uv = _rendered_uvs(context, objects, layout, mesh_uvs, uv_offsets, user.lightmap_uv_map)
         problems = _uv_problems(export, objects, layout, mesh_uvs, rendered_uv)
         if not problems:
             break
         warnings += [f"Object '{objects[index].name}' gets no lightmap: {problem}; apply them, or bake vertex "
                      "colours." for index, problem in problems.items()]
         objects = [item for index, item in enumerate(objects) if index not in problems]
-    return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), options,
+    return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
                                  mesh_uvs, uv_offsets, warnings))
 
 
-def _plan_on_existing_uv_map(context, export: Export, options: LightmapOptions, density: float) -> LightmapPlan:
+def _plan_on_existing_uv_map(context, export: Export, user: UserSettings, size: AtlasSize) -> LightmapPlan:
     """The plan for baking onto a UV map the objects already have, as their modifiers carry it to the rendered
     mesh; the UV map is read, never changed. Objects whose UVs would share texels (linked duplicates, meshes each
     unwrapped onto the whole square) get separate pages; all pages have the resolution asked for, or the size the
@@ -114,24 +95,24 @@ def _plan_on_existing_uv_map(context, export: Export, options: LightmapOptions, 
     objects = [item for item in export.objects if item.writable]
     if not objects:
         raise SceneError(NOTHING_TO_BAKE)
-    lacking = [item.name for item in objects if options.uv_map not in bpy.data.meshes[item.mesh_name].uv_layers]
+    uv_map = user.lightmap_uv_map
+    lacking = [item.name for item in objects if uv_map not in bpy.data.meshes[item.mesh_name].uv_layers]
     if lacking:
-        raise SceneError(f"Object(s) {', '.join(map(repr, lacking))} have no UV map '{options.uv_map}' to bake the "
+        raise SceneError(f"Object(s) {', '.join(map(repr, lacking))} have no UV map '{uv_map}' to bake the "
                          "lightmap onto; add one, or let the bake make a new UV map.")
     depsgraph = context.evaluated_depsgraph_get()
-    rendered_uv = [_evaluated_uvs(depsgraph, item, options.uv_map) for item in objects]
+    rendered_uv = [_evaluated_uvs(depsgraph, item, uv_map) for item in objects]
     dropped = [item.name for item, uv in zip(objects, rendered_uv) if uv is None]
     if dropped:
         raise SceneError(f"The modifiers of {', '.join(map(repr, dropped))} do not keep the UV map "
-                         f"'{options.uv_map}'; apply them, or let the bake make a new UV map.")
+                         f"'{uv_map}'; apply them, or let the bake make a new UV map.")
     areas_m2 = np.array([_area_m2(export, item) * _lightmap_scale(item) ** 2 for item in objects])
-    areas_uv = np.array([max(_uv_area(uv), 1e-12) for uv in rendered_uv])
-    side = options.resolution or int(np.clip(np.ceil(density * np.sqrt(areas_m2 / areas_uv).max()), 8,
-                                             options.max_size))
+    areas_uv = np.array([max(uv_area(uv), 1e-12) for uv in rendered_uv])
+    side = size.existing_uv_side(areas_m2, areas_uv)
     page = pages_without_overlap(rendered_uv, side, side)
     layout = AtlasLayout(rendered_uv, page, side, side, float(side * np.sqrt(areas_uv.sum() / areas_m2.sum())))
-    warnings = _existing_uv_warnings(objects, rendered_uv, options.uv_map, side)
-    return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), options,
+    warnings = _existing_uv_warnings(objects, rendered_uv, uv_map, side)
+    return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
                                  {}, [None] * len(objects), warnings))
 
 
@@ -166,18 +147,18 @@ def _checked(plan: LightmapPlan) -> LightmapPlan:
     return plan
 
 
-def _lightmap_objects(export: Export, options: LightmapOptions) -> list[ExportedObject]:
+def _lightmap_objects(export: Export, uv_map: str) -> list[ExportedObject]:
     """The baked mesh objects; raises SceneError naming a mesh whose lightmap UV map name is taken."""
     objects = [item for item in export.objects if item.writable]
     for item in objects:
         mesh = bpy.data.meshes[item.mesh_name]
-        if options.uv_map in mesh.uv_layers and mesh.get(OWNED_UV) != options.uv_map:
-            raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a UV map '{options.uv_map}' "
+        if uv_map in mesh.uv_layers and mesh.get(OWNED_UV) != uv_map:
+            raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a UV map '{uv_map}' "
                              "that this add-on did not make; choose another lightmap UV map name.")
     return objects
 
 
-def _unwrap(export: Export, objects: list[ExportedObject], options: LightmapOptions, density: float):
+def _unwrap(export: Export, objects: list[ExportedObject], size: AtlasSize):
     """The atlas layout (one block per mesh, a copy per object), the UV map of each mesh and each object's offset
     from its mesh's first user."""
     first_user: dict[str, int] = {}
@@ -186,8 +167,7 @@ def _unwrap(export: Export, objects: list[ExportedObject], options: LightmapOpti
     sources = [_unwrap_input(export, objects[index]) for index in first_user.values()]
     position = {name: number for number, name in enumerate(first_user)}
     layout = layout_atlas([(positions, vertices) for positions, vertices, _ in sources],
-                          [position[item.mesh_name] for item in objects], options.padding, options.max_size, density,
-                          None if options.texels_per_metre else options.resolution)
+                          [position[item.mesh_name] for item in objects], size)
     mesh_uvs = {name: (sources[position[name]][2], layout.corner_uv[index]) for name, index in first_user.items()}
     uv_offsets = [None if first_user[item.mesh_name] == index else
                   layout.corner_uv[index][0, 0] - layout.corner_uv[first_user[item.mesh_name]][0, 0]
@@ -287,30 +267,11 @@ def _uv_problems(export: Export, objects, layout: AtlasLayout, mesh_uvs, rendere
     problems = {}
     for index, item in enumerate(objects):
         uv_per_m2 = (layout.texels_per_metre * _lightmap_scale(item)) ** 2 / (layout.width * layout.height)
-        problem = _uv_problem(item, rendered_uv[index], mesh_uvs[item.mesh_name][1], _area_m2(export, item),
-                              uv_per_m2)
+        problem = None if item.same_topology else modifier_uv_problem(
+            rendered_uv[index], mesh_uvs[item.mesh_name][1], _area_m2(export, item), uv_per_m2)
         if problem:
             problems[index] = problem
     return problems
-
-
-def _uv_problem(item: ExportedObject, rendered_uv, mesh_uv: np.ndarray, rendered_m2: float, uv_per_m2: float):
-    """Why an object's rendered lightmap UVs cannot be baked (None: they can): its modifiers drop the UV map,
-    repeat it so that copies overlap (the UV area exceeds the UV map's by over 10%), or squash it (under a quarter
-    of the UV area its rendered surface needs at the layout's density, ``uv_per_m2``)."""
-    if item.same_topology:
-        return None
-    if rendered_uv is None:
-        return "its modifiers do not keep UV maps"
-    if _uv_area(rendered_uv) > 1.1 * _uv_area(mesh_uv):
-        return "its modifiers repeat its UV map (as Array, Mirror and Solidify do), so copies would share texels"
-    if _uv_area(rendered_uv) < 0.25 * rendered_m2 * uv_per_m2:
-        return "its modifiers squash its UV map (as Wireframe does), so its faces would cover no texels"
-    return None
-
-
-def _uv_area(corner_uv: np.ndarray) -> float:
-    return float(triangle_areas(np.pad(corner_uv, [(0, 0), (0, 0), (0, 1)])).sum())
 
 
 def _check_image_name_free(name: str) -> None:
@@ -325,27 +286,27 @@ def write_lightmap(plan: LightmapPlan, lights: list[np.ndarray], metadata: dict,
     """UV maps on the meshes, one EXR file and Blender image per page; returns the report's per-object entries and
     warnings. The files are staged in ``staged`` (they replace earlier ones when it is committed); the images
     read them from their final paths after that."""
-    options, layout = plan.options, plan.layout
+    user, layout = plan.user, plan.layout
     # Every file first: writing may fail, and nothing in the .blend has changed yet.
-    files = [_write_files(options, name, light, metadata, folder, staged) for name, light in
+    files = [_write_files(user, name, light, metadata, folder, staged) for name, light in
              zip(plan.image_names, lights)]
     for name, (loops, corner_uv) in plan.mesh_uvs.items():
-        _write_uv_map(bpy.data.meshes[name], options.uv_map, loops, corner_uv)
-        bpy.data.meshes[name][OWNED_UV] = options.uv_map
+        _write_uv_map(bpy.data.meshes[name], user.lightmap_uv_map, loops, corner_uv)
+        bpy.data.meshes[name][OWNED_UV] = user.lightmap_uv_map
     for item, offset, page in zip(plan.objects, plan.uv_offsets, layout.page):
         obj = bpy.data.objects[item.name]
         _set_property(obj, PAGE_PROPERTY, int(page) if layout.page_count > 1 else None)
         _set_property(obj, OFFSET_PROPERTY, None if offset is None else offset.tolist())
-    images = [_load_image(name, file, options.image_name, page) for page, (name, file) in
+    images = [_load_image(name, file, user.lightmap_image, page) for page, (name, file) in
               enumerate(zip(plan.image_names, files))]
-    _remove_stale_pages(options.image_name, layout.page_count)
+    _remove_stale_pages(user.lightmap_image, layout.page_count)
     entries = []
     for item, page in zip(plan.objects, layout.page):
         image, path = images[page], files[page].path
-        entry = {"name": item.name, "uv_map": options.uv_map, "color_attribute": None,
+        entry = {"name": item.name, "uv_map": user.lightmap_uv_map, "color_attribute": None,
                  "image": f"(packed) {image.name}" if image.packed_file else path,
                  "resolution": [layout.width, layout.height]}
-        if options.png_exposure is not None and folder:
+        if user.lightmap_png and folder:
             entry["png"] = os.path.splitext(path)[0] + ".png"
         entries.append(entry)
     warnings = [f"Lightmap image '{file.name}': its light reaches above {HALF_MAX:g}, more than half floats hold; "
@@ -393,15 +354,15 @@ class _PageFile:
     widened: bool
 
 
-def _write_files(options: LightmapOptions, name: str, light: np.ndarray, metadata: dict, folder: str,
+def _write_files(user: UserSettings, name: str, light: np.ndarray, metadata: dict, folder: str,
                  staged: StagedFiles) -> _PageFile:
     """The EXR (and the optional PNG) staged in ``folder``, or the EXR alone in a temporary folder when the image
     is to be packed."""
-    half = options.half and float(np.max(light, initial=0.0)) <= HALF_MAX
+    half = user.lightmap_half and float(np.max(light, initial=0.0)) <= HALF_MAX
     if not folder:
         path = os.path.join(tempfile.mkdtemp(prefix="radiosity_"), bpy.path.clean_name(name) + ".exr")
         write_exr(path, light, half, metadata)
-        return _PageFile(name, path, path, True, half != options.half)
+        return _PageFile(name, path, path, True, half != user.lightmap_half)
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as error:
@@ -409,12 +370,13 @@ def _write_files(options: LightmapOptions, name: str, light: np.ndarray, metadat
     path = os.path.join(folder, bpy.path.clean_name(name) + ".exr")
     source = staged.stage(path, lambda temporary: write_exr(temporary, light, half, metadata),
                           lambda temporary: check_image(temporary, light))
-    if options.png_exposure is not None:
-        encoding = {"radiosity:encoding": f"sRGB(clamp(light x 2^{options.png_exposure:g}, 0, 1)), 8 bits"}
+    if user.lightmap_png:
+        exposure = user.lightmap_png_exposure
+        encoding = {"radiosity:encoding": f"sRGB(clamp(light x 2^{exposure:g}, 0, 1)), 8 bits"}
         staged.stage(os.path.splitext(path)[0] + ".png",
-                     lambda temporary: write_png(temporary, light, options.png_exposure, encoding),
+                     lambda temporary: write_png(temporary, light, exposure, encoding),
                      lambda temporary: check_image(temporary, light))
-    return _PageFile(name, path, source, False, half != options.half)
+    return _PageFile(name, path, source, False, half != user.lightmap_half)
 
 
 def _load_image(name: str, file: _PageFile, lightmap_name: str, page: int):

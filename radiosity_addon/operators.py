@@ -6,15 +6,19 @@ import threading
 
 import bpy
 
+from ..core import BakeCancelled, BakeError
+from . import hookup
 from . import job as bake_job
+from .lightmaps import lightmap_folder, page_images
 
 # The one interactive bake at a time; the worker thread writes only plain Python values here.
 STATUS = {"running": False, "fraction": 0.0, "message": "", "cancel": False, "error": None, "summary": ""}
 
 
 def _user_args(context):
+    """The job's arguments from the scene's settings: UserSettings and the lightmaps' absolute folder."""
     settings = context.scene.radiosity
-    return settings.user_settings(), settings.outputs()
+    return settings.user_settings(), lightmap_folder(settings.lightmap_folder)
 
 
 def _summary(report: dict) -> str:
@@ -22,13 +26,9 @@ def _summary(report: dict) -> str:
             f"{report['residual']:.4f}, {report['seconds']:.1f} s")
 
 
-def _errors():
-    from ..core import BakeError
-    return (BakeError,)
-
-
 class RADIOSITY_OT_bake(bpy.types.Operator):
-    """Solve diffuse light by radiosity and bake it into a colour attribute of every baked mesh"""
+    """Solve diffuse light by radiosity and bake it into a colour attribute of every baked mesh, a lightmap on a
+    UV map of its own, or both (the Target setting)"""
 
     bl_idname = "radiosity.bake"
     bl_label = "Bake Radiosity"
@@ -42,7 +42,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         try:
             job = bake_job.prepare(context, *_user_args(context))
             bake_job.solve(job, lambda fraction, message: None, lambda: False)
-        except _errors() as error:
+        except BakeError as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         return self._apply(job)
@@ -50,7 +50,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
     def invoke(self, context, event):
         try:
             self._job = bake_job.prepare(context, *_user_args(context))
-        except _errors() as error:
+        except BakeError as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         STATUS.update(running=True, fraction=0.0, message="Starting", cancel=False, error=None)
@@ -83,7 +83,6 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         return self._finish(context)
 
     def _finish(self, context):
-        from ..core import BakeCancelled
         wm = context.window_manager
         wm.event_timer_remove(self._timer)
         wm.progress_end()
@@ -107,7 +106,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         earlier files stay as they were."""
         try:
             report = bake_job.write_outputs(job)
-        except _errors() as error:
+        except BakeError as error:
             return self._failed(error)
         for warning in report["warnings"]:
             self.report({"WARNING"}, warning)
@@ -142,7 +141,6 @@ class RADIOSITY_OT_preview(bpy.types.Operator):
     _saved: dict = {}
 
     def execute(self, context):
-        from . import hookup
         spaces = [space for area in context.screen.areas if area.type == "VIEW_3D"
                   for space in area.spaces if space.type == "VIEW_3D"] if context.screen else []
         hooked = [m for m in bpy.data.materials if hookup.REMEMBERED in m]
@@ -168,8 +166,6 @@ class RADIOSITY_OT_preview(bpy.types.Operator):
 
 def _baked_light_group(settings):
     """The hookup group for what was baked: the lightmap image on its UV map, else the colour attribute."""
-    from . import hookup
-    from .lightmaps import page_images
     images = page_images(settings.lightmap_image)
     if images:
         return hookup.baked_light_group(uv_map=settings.lightmap_uv_map, images=images)

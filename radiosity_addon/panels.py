@@ -4,6 +4,7 @@ from __future__ import annotations
 import bpy
 
 from .operators import STATUS
+from .settings import SETTINGS
 
 
 class RENDER_PT_radiosity(bpy.types.Panel):
@@ -16,33 +17,17 @@ class RENDER_PT_radiosity(bpy.types.Panel):
         settings = context.scene.radiosity
         layout = self.layout
         layout.use_property_split = True
-        layout.prop(settings, "quality")
-        column = layout.column()
-        column.enabled = settings.quality == "CUSTOM"
-        for name in ("element_size", "patch_size", "adaptive_passes", "residual", "light_samples"):
-            column.prop(settings, name)
-        layout.prop(settings, "form_factors")
-        layout.prop(settings, "max_memory_gb")
-        layout.prop(settings, "target")
-        if settings.target != "LIGHTMAP":
-            layout.prop(settings, "attribute_name")
-        if settings.target != "VERTEX_COLORS":
-            box = layout.column(heading="Lightmap")
-            for name in ("texels_per_metre", "lightmap_resolution", "lightmap_max_size", "lightmap_padding",
-                         "lightmap_uv_map", "lightmap_existing_uv", "lightmap_image", "lightmap_folder",
-                         "lightmap_half", "lightmap_png"):
-                box.prop(settings, name)
-            exposure = box.column()
-            exposure.enabled = settings.lightmap_png
-            exposure.prop(settings, "lightmap_png_exposure")
-            indirect = box.column()
-            indirect.enabled = settings.quality == "CUSTOM"
-            indirect.prop(settings, "lightmap_indirect")
-            gather = indirect.column()
-            gather.enabled = settings.lightmap_indirect != "interpolate"
-            gather.prop(settings, "gather_samples")
-        layout.prop(settings, "create_radiosity_mesh")
-        layout.prop(settings, "make_local")
+        shown = {"": True, "vertex_colors": settings.target != "LIGHTMAP",
+                 "lightmap": settings.target != "VERTEX_COLORS"}
+        lightmap = None
+        for setting in SETTINGS:  # in table order; a section's settings only when the target writes it
+            if not shown[setting.section]:
+                continue
+            if setting.section == "lightmap":
+                lightmap = lightmap or layout.column(heading="Lightmap")
+            row = (lightmap if setting.section == "lightmap" else layout).row()
+            row.enabled = setting.enabled_when is None or setting.enabled_when(settings)
+            row.prop(settings, setting.name)
         if STATUS["running"]:
             if hasattr(layout, "progress"):
                 layout.progress(factor=STATUS["fraction"], type="BAR", text=STATUS["message"])

@@ -11,11 +11,12 @@ import bpy
 import numpy as np
 
 from ..core import SceneError
-from ..core.raycast import RayCaster
+from ..core.projected_light import projected_light
 from .export import Export, ExportedObject, world_corner_normals, world_positions
 
 OWNED_ATTRIBUTE = "radiosity_attribute"
 RADIOSITY_MESH_TAG = "radiosity_mesh"
+PROJECTION_REACH = 0.05  # of the scene's size: how far a corner of a modified mesh looks for its baked surface
 
 
 def check_attribute_name_free(export: Export, name: str) -> None:
@@ -62,32 +63,13 @@ def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj) -> np.ndar
 
 
 def _projected_light(item, solution, triangles, obj) -> np.ndarray:
-    """Light for meshes whose modifiers changed the topology: each original corner looks along its normal
-    (both ways) for the nearest point of the object's baked surface."""
-    valid = triangles[triangles >= 0]
-    caster = RayCaster(solution.scene.triangles[valid], threads=1)
-    mesh = obj.data
-    matrix = np.array(obj.matrix_world)
-    count = len(mesh.loops)
-    vertex = np.empty(count, dtype=np.int32)
+    """Light for meshes whose modifiers changed the topology: each original corner takes the light of the nearest
+    point of the object's baked surface along its normal (core.projected_light)."""
+    mesh, matrix = obj.data, np.array(obj.matrix_world)
+    vertex = np.empty(len(mesh.loops), dtype=np.int32)
     mesh.loops.foreach_get("vertex_index", vertex)
-    points = world_positions(mesh, matrix)[vertex]
-    normal = world_corner_normals(mesh, matrix)
-    reach = 0.05 * solution.scene.size_m
-    best = np.full(count, np.inf)
-    light = np.zeros((count, 3))
-    for sign in (1.0, -1.0):
-        start = points + sign * reach * normal
-        hit, bary = caster.first_hit(start, -sign * normal)
-        found = np.flatnonzero(hit >= 0)
-        hit_points = np.einsum("mc,mck->mk", bary[found], solution.scene.triangles[valid[hit[found]]])
-        distance = np.linalg.norm(hit_points - points[found], axis=1)
-        nearer = distance < best[found]
-        closer = found[nearer]
-        best[closer] = distance[nearer]
-        light[closer] = solution.evaluate(valid[hit[closer]], bary[closer], direct_per_point=True)
-    caster.close()
-    return np.nan_to_num(light)
+    return projected_light(solution, triangles[triangles >= 0], world_positions(mesh, matrix)[vertex],
+                           world_corner_normals(mesh, matrix), PROJECTION_REACH * solution.scene.size_m)
 
 
 def _write_attribute(mesh, name: str, light: np.ndarray) -> None:

@@ -6,7 +6,7 @@ import numpy as np
 from core.mesh import build_mesh, elements_of
 from core.raycast import RayCaster
 from core.scene import Material, Scene
-from core.shooting import HemicubeRows, Patches, RayCastRows, row_blocks
+from core.formfactor_rows import HemicubeRows, Patches, RayCastRows, row_blocks
 
 
 def area_form_factor(receiver: np.ndarray, source: np.ndarray, method: str, element_size_m: float,

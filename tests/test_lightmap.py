@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from core import BakeSettings, Material, Scene, SceneError, SettingsError, SunLight, World, bake
-from core.atlas import layout_atlas, pack_blocks, pages_without_overlap
+from core.atlas import (AtlasSize, atlas_size, layout_atlas, modifier_uv_problem, pack_blocks, pages_without_overlap,
+                        uv_area)
 import core.lightmap
 from core.lightmap import LightmapSettings, bake_lightmap, dilate, finish_lightmap, light_chunk, plan_texels
 from core.errors import BakeCancelled
@@ -23,7 +24,8 @@ def as_mesh(triangles):
 
 def lightmap_of(scene, parts, settings=LightmapSettings(), texels_per_metre=16.0, bake_settings=None, **callbacks):
     solution = bake(scene, bake_settings or BakeSettings(patch_size_m=1.0, element_size_m=0.5))
-    layout = layout_atlas([as_mesh(p) for p in parts], list(range(len(parts))), 2, 4096, texels_per_metre)
+    layout = layout_atlas([as_mesh(p) for p in parts], list(range(len(parts))),
+                          AtlasSize(texels_per_metre, 0, 2, 4096))
     corner_uv = np.concatenate(layout.corner_uv)
     result = bake_lightmap(solution, np.arange(len(scene.triangles)), corner_uv, layout.width, layout.height,
                            settings, **callbacks)
@@ -65,6 +67,42 @@ def test_objects_on_existing_uv_maps_share_a_page_only_where_their_texels_are_fr
     uvs = [rectangle(0, 0, 0.5, 1), rectangle(0, 0, 1, 1), rectangle(0.5, 0, 1, 1), rectangle(0, 0, 1, 1),
            rectangle(0, 0, 0.25, 0.25)]
     assert pages_without_overlap(uvs, 16, 16).tolist() == [0, 1, 0, 2, 3]
+
+
+def test_the_atlas_size_takes_the_density_or_the_resolution_never_both():
+    assert atlas_size(0.0, 0, 12.5, 4, 4096) == AtlasSize(12.5, 0, 4, 4096)  # neither: the preset's density
+    assert atlas_size(40.0, 0, 12.5, 4, 4096).texels_per_metre == 40.0
+    assert atlas_size(0.0, 512, 12.5, 4, 4096).resolution == 512
+    with pytest.raises(SettingsError, match="both a texel density"):
+        atlas_size(40.0, 512, 12.5, 4, 4096)
+    with pytest.raises(SettingsError, match="above the maximum size 256"):
+        atlas_size(0.0, 512, 12.5, 4, 256)
+
+
+def test_existing_uv_pages_give_the_neediest_object_its_density():
+    """1 m^2 on a quarter of the square at 64 texels per metre needs 64 x sqrt(1 / 0.25) = 128 texels a side;
+    4 m^2 on the whole square needs 128 too; the larger need wins, clipped to the maximum size."""
+    size = atlas_size(64.0, 0, 1.0, 4, 4096)
+    assert size.existing_uv_side(np.array([1.0, 4.0]), np.array([0.25, 1.0])) == 128
+    assert size.existing_uv_side(np.array([1.0, 9.0]), np.array([0.25, 1.0])) == 192
+    assert atlas_size(64.0, 0, 1.0, 4, 100).existing_uv_side(np.array([1.0]), np.array([0.25])) == 100
+    assert atlas_size(0.0, 300, 1.0, 4, 4096).existing_uv_side(np.array([1.0]), np.array([0.25])) == 300
+
+
+def test_uv_area_of_the_unit_square_and_of_a_half_texel_triangle():
+    square = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], dtype=float)
+    assert uv_area(square) == pytest.approx(1.0, abs=1e-12)
+    assert uv_area(square[:1] * 0.5) == pytest.approx(0.125, abs=1e-12)
+
+
+def test_modifier_uv_problems_are_told_apart_by_uv_area():
+    """A quarter square of UVs for 1 m^2 at 0.25 UV per m^2 is what the surface needs: no problem. Two copies
+    of it (a Mirror) double the area; a copy shrunk to a tenth (a Wireframe's strips) is under a quarter."""
+    quarter = np.array([[[0, 0], [0.5, 0], [0.5, 0.5]], [[0, 0], [0.5, 0.5], [0, 0.5]]], dtype=float)
+    assert modifier_uv_problem(quarter, quarter, 1.0, 0.25) is None
+    assert "repeat" in modifier_uv_problem(np.concatenate([quarter, quarter + [0.5, 0]]), quarter, 1.0, 0.25)
+    assert "squash" in modifier_uv_problem(quarter * np.sqrt(0.1), quarter, 1.0, 0.25)
+    assert "do not keep" in modifier_uv_problem(None, quarter, 1.0, 0.25)
 
 
 def test_a_block_over_the_maximum_size_is_refused():

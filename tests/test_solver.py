@@ -6,8 +6,8 @@ from core import BakeSettings, Material, PointLight, Scene, World, bake
 from core.bake import ROUGH_RESIDUAL
 from core.mesh import Elements, build_mesh, elements_of
 from core.raycast import RayCaster
-from core.shooting import Patches, RayCastRows
-from core.solver import FormFactors, RadiosityState, patch_mean, solve_direct
+from core.formfactor_rows import Patches, RayCastRows
+from core.solver import FormFactorCache, RadiosityState, patch_mean, solve_direct
 from shapes import box_faces, quad, uv_sphere
 
 
@@ -82,7 +82,7 @@ def test_unit_cube_one_patch_per_face(reflectance, expected):
     faces = Patches(None, None, None, np.bincount(face_of_patch, weights=triangle_patches.area_m2))
     rows = FaceRows(RayCastRows(RayCaster(scene.triangles), triangle_patches, 2, 1e-5), face_of_patch, elements)
     state = RadiosityState.start(by_face, faces, np.zeros((len(elements.node), 3)))
-    solve_direct(state, FormFactors(rows, 6, 2 ** 30, threads=2))
+    solve_direct(state, FormFactorCache(rows, 6, 2 ** 30, threads=2))
     radiosity = patch_mean(state.radiosity, by_face, faces)[:, 0]
     floor, walls, ceiling = radiosity[4], radiosity[:4], radiosity[5]
     assert floor == pytest.approx(expected[0], rel=0.01)
@@ -168,7 +168,7 @@ def reciprocity_errors(scene, samples_per_edge):
     (the element-centroid quadrature of the receiving patch is not meant for neighbours sharing an edge)."""
     mesh = build_mesh(scene, patch_size_m=1.0, element_size_m=0.09)  # elements of at most ~1/8 m on every patch
     elements, patches = elements_of(mesh, scene), Patches.of(mesh)
-    factors = FormFactors(RayCastRows(RayCaster(scene.triangles), patches, samples_per_edge, 1e-5),
+    factors = FormFactorCache(RayCastRows(RayCaster(scene.triangles), patches, samples_per_edge, 1e-5),
                           len(patches.area_m2), 2 ** 30, threads=2)
     factors.compute(np.arange(len(patches.area_m2)), elements, patches)
     exchange = factors.coupling.astype(np.float64) * patches.area_m2[:, None]

@@ -144,18 +144,17 @@ def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples:
     return pixels.reshape(height, width, 4)[..., :3].astype(np.float64), seconds
 
 
-def lightmap_bake(quality: str, options, folder) -> tuple:
+def lightmap_bake(quality: str, folder, **settings) -> tuple:
     """Our lightmap bake of the open file through the job API, as the operator runs it (prepare, solve, apply),
-    with ``options`` (LightmapOptions): (the job, whose ``lightmaps`` are its pages and ``export`` the exported
-    scene; the report; the seconds prepare and solve took)."""
+    with the given UserSettings keywords (lightmap_resolution=64, ...): (the job, whose ``lightmaps`` are its
+    pages and ``export`` the exported scene; the report; the seconds prepare and solve took)."""
     import time
 
     import bpy
     from radiosity_baker.radiosity_addon import job
-    from radiosity_baker.radiosity_addon.presets import UserSettings
+    from radiosity_baker.radiosity_addon.settings import UserSettings
     started = time.perf_counter()
-    bake = job.prepare(bpy.context, UserSettings(quality.upper()), job.Outputs("LIGHTMAP", lightmap=options,
-                                                                              lightmap_folder=str(folder)))
+    bake = job.prepare(bpy.context, UserSettings(quality=quality.upper(), target="LIGHTMAP", **settings), str(folder))
     job.solve(bake, lambda fraction, message: None, lambda: False)
     seconds = time.perf_counter() - started
     return bake, job.write_outputs(bake), seconds

@@ -20,7 +20,7 @@ def test_cancelled_bake_changes_nothing(empty_scene, extension):
     job_module = extension.radiosity_addon.job
     from radiosity_baker.core import BakeCancelled
     settings = bpy.context.scene.radiosity
-    job = job_module.prepare(bpy.context, settings.user_settings(), settings.outputs())
+    job = job_module.prepare(bpy.context, settings.user_settings(), "")
     calls = []
     with pytest.raises(BakeCancelled):
         job_module.solve(job, lambda f, m: None, lambda: calls.append(1) or len(calls) > 2)

@@ -82,8 +82,7 @@ def test_cornell_lightmap_matches_cycles(tmp_path, extension):
     floor beside it). MEASURED_DRAFT_ERROR is what this measured; the bound leaves room for Cycles' noise.
     """
     bpy.ops.wm.open_mainfile(filepath=str(make_cornell_box(tmp_path)))
-    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
-    bake, _, _ = lightmap_bake("DRAFT", LightmapOptions(resolution=SIZE, padding=2), tmp_path)
+    bake, _, _ = lightmap_bake("DRAFT", tmp_path, lightmap_resolution=SIZE, lightmap_padding=2)
     page, = bake.lightmaps
     ours = page.light.astype(np.float64)
     names = ["floor", "back wall", "left wall", "right wall", "short block", "tall block"]
@@ -184,12 +183,11 @@ def test_unwritable_lightmap_folder_fails_before_changing_the_file(empty_scene, 
     add_light("POINT", (0, 0, 1.5), 100.0)
     job = extension.radiosity_addon.job
     from radiosity_baker.core import OutputError
-    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
-    from radiosity_baker.radiosity_addon.presets import UserSettings
+    from radiosity_baker.radiosity_addon.settings import UserSettings
     blocked = tmp_path / "not a folder"
     blocked.write_text("a file where the lightmap folder should be")
-    bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs(
-        "BOTH", lightmap=LightmapOptions(resolution=32), lightmap_folder=str(blocked)))
+    bake = job.prepare(bpy.context, UserSettings(quality="DRAFT", target="BOTH", lightmap_resolution=32),
+                       str(blocked))
     job.solve(bake, lambda fraction, message: None, lambda: False)
     before = scene_state(), sorted(image.name for image in bpy.data.images)
     with pytest.raises(OutputError, match="not a folder"):
@@ -205,12 +203,11 @@ def test_a_full_disk_in_the_panels_bake_keeps_the_earlier_lightmap(empty_scene, 
     job = extension.radiosity_addon.job
     lightmaps = extension.radiosity_addon.lightmaps
     from radiosity_baker.core import OutputError
-    from radiosity_baker.radiosity_addon.presets import UserSettings
-    outputs = job.Outputs("LIGHTMAP", lightmap=lightmaps.LightmapOptions(resolution=32),
-                          lightmap_folder=str(tmp_path))
+    from radiosity_baker.radiosity_addon.settings import UserSettings
+    settings = UserSettings(quality="DRAFT", target="LIGHTMAP", lightmap_resolution=32)
 
     def bake():
-        work = job.prepare(bpy.context, UserSettings("DRAFT"), outputs)
+        work = job.prepare(bpy.context, settings, str(tmp_path))
         job.solve(work, lambda fraction, message: None, lambda: False)
         return job.write_outputs(work)
     bake()
@@ -291,8 +288,7 @@ def test_objects_whose_modifiers_change_the_topology(empty_scene, extension, tmp
     A tile whose Array modifier repeats the UVs gets none, a warning naming it, and its UV maps stay as they were."""
     from radiosity_baker.core.image_file import read_image
     from radiosity_baker.core.texels import rasterize
-    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
-    from radiosity_baker.radiosity_addon.presets import UserSettings
+    from radiosity_baker.radiosity_addon.settings import UserSettings
     job = extension.radiosity_addon.job
     subdivided = grid_plane("Subdivided", 1.0, 2)
     modifier = subdivided.modifiers.new("Subdivision", "SUBSURF")
@@ -304,8 +300,8 @@ def test_objects_whose_modifiers_change_the_topology(empty_scene, extension, tmp
     arrayed = grid_plane("Arrayed", 1.0, 1, location=(0.0, 3.0, 0.0))
     arrayed.modifiers.new("Array", "ARRAY").count = 2
     add_light("SUN", (0.0, 0.0, 5.0), 3.0)
-    bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs(
-        "LIGHTMAP", lightmap=LightmapOptions(texels_per_metre=32, padding=2), lightmap_folder=str(tmp_path)))
+    bake = job.prepare(bpy.context, UserSettings(quality="DRAFT", target="LIGHTMAP", texels_per_metre=32,
+                                                 lightmap_padding=2), str(tmp_path))
     job.solve(bake, lambda fraction, message: None, lambda: False)
     report = job.write_outputs(bake)
     assert {entry["name"] for entry in report["objects"]} == {"Subdivided", "Subdivided twin"}
@@ -335,8 +331,7 @@ def test_bake_onto_an_existing_uv_map(empty_scene, extension, tmp_path):
     from radiosity_baker.core import SceneError
     from radiosity_baker.core.image_file import read_image
     from radiosity_baker.core.texels import rasterize
-    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
-    from radiosity_baker.radiosity_addon.presets import UserSettings
+    from radiosity_baker.radiosity_addon.settings import UserSettings
     job = extension.radiosity_addon.job
     shaded = grid_plane("Shaded", 1.0, 2)
     twin = shaded.copy()
@@ -352,9 +347,9 @@ def test_bake_onto_an_existing_uv_map(empty_scene, extension, tmp_path):
     grid_plane("Roof", 2.0, 1, location=(0.0, 0.0, 1.0)).radiosity.mode = "SHADOW_ONLY"
     add_light("SUN", (0.0, 0.0, 5.0), 3.0)
     before = {obj.name: triangle_uvs(obj.data, "UVMap") for obj in (shaded, other)}
-    options = LightmapOptions("UVMap", texels_per_metre=32, existing_uv_map=True)
-    bake = job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs("LIGHTMAP", lightmap=options,
-                                                                      lightmap_folder=str(tmp_path)))
+    settings = UserSettings(quality="DRAFT", target="LIGHTMAP", lightmap_uv_map="UVMap", texels_per_metre=32,
+                            lightmap_existing_uv=True)
+    bake = job.prepare(bpy.context, settings, str(tmp_path))
     job.solve(bake, lambda fraction, message: None, lambda: False)
     report = job.write_outputs(bake)
     for obj in (shaded, other):
@@ -374,5 +369,4 @@ def test_bake_onto_an_existing_uv_map(empty_scene, extension, tmp_path):
         assert light.reshape(-1, 3)[texels.pixel] == pytest.approx(expected, rel=0.01, abs=1e-3), obj.name
     other.data.uv_layers.remove(other.data.uv_layers["UVMap"])
     with pytest.raises(SceneError, match="'Other' have no UV map 'UVMap'"):
-        job.prepare(bpy.context, UserSettings("DRAFT"), job.Outputs("LIGHTMAP", lightmap=options,
-                                                                   lightmap_folder=str(tmp_path)))
+        job.prepare(bpy.context, settings, str(tmp_path))

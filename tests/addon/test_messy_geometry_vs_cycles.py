@@ -174,9 +174,8 @@ def test_messy_geometry_has_no_leaks_and_no_black_blotches(empty_scene, extensio
     5%). Measured: every visible texel within 0.71 of the leak bound (the moulding's points within 0.82, their
     mean 0.192 against Cycles' 0.188), the doubled panel 0.5% from the single one. Pushing texels out through
     open shells, as the baker once did, fails it."""
-    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
     objects = messy_courtyard_corner()
-    bake, _, _ = lightmap_bake("DRAFT", LightmapOptions(texels_per_metre=TEXELS_PER_METRE, padding=2), tmp_path)
+    bake, _, _ = lightmap_bake("DRAFT", tmp_path, texels_per_metre=TEXELS_PER_METRE, lightmap_padding=2)
     page, = bake.lightmaps
     ours = page.light.astype(np.float64)
     height, width = ours.shape[:2]

@@ -46,8 +46,7 @@ def test_a_column_lit_off_the_back_of_a_single_sided_floor_matches_cycles(empty_
     floor sent nothing and the column came out black. Measured: +8.1% with the floor facing up, +9.0% turned
     over (Medium; the two orientations within 1% of each other)."""
     column = column_under_a_canopy(floor_faces_up)
-    from radiosity_baker.radiosity_addon.lightmaps import LightmapOptions
-    bake, _, _ = lightmap_bake("MEDIUM", LightmapOptions(resolution=SIZE, padding=2), tmp_path)
+    bake, _, _ = lightmap_bake("MEDIUM", tmp_path, lightmap_resolution=SIZE, lightmap_padding=2)
     page, = bake.lightmaps
     first, _ = cycles_lightmap_bake([column], "Lightmap", SIZE, SIZE, samples=SAMPLES, seed=1)
     second, _ = cycles_lightmap_bake([column], "Lightmap", SIZE, SIZE, samples=SAMPLES, seed=2)

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from core.lights import area_light_area_m2, direct_irradiance, one_light_irradiance, spot_mask
+from core.analytic_lights import area_light_area_m2, direct_irradiance, one_light_irradiance, spot_mask
 from core.raycast import RayCaster
 from core.scene import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
 from shapes import box_faces, quad

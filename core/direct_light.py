@@ -14,7 +14,7 @@ import numpy as np
 
 from .cluster_tree import build_tree
 from .clusters import SAMPLES, cluster_pieces
-from .lights import direct_irradiance, one_light_irradiance
+from .analytic_lights import direct_irradiance, one_light_irradiance
 from .links import LinkSources, link_factors
 from .mesh import build_mesh, node_reflectance
 from .raycast import RayCaster
@@ -54,7 +54,7 @@ class DirectLighting:
         count (s^2 per light and emitter); ``seed_offset`` is added to the bake's seed; ``lift``
         (core.terminator.ShadowLift) starts the shadow rays towards lamps and emissive surfaces from smooth-shaded
         points on their smooth surface (core.terminator); ``world`` False leaves the world out; ``one_light``:
-        one shadow ray per point to one of the analytic lights, chosen by importance (core.lights
+        one shadow ray per point to one of the analytic lights, chosen by importance (core.analytic_lights
         .one_light_irradiance; unbiased, noisier), with one sample per edge."""
         samples = samples_per_edge or self.samples_per_edge
         if one_light:

@@ -8,16 +8,21 @@ Two interchangeable methods (``FormFactorMethod``):
   gives F(e -> j) = F(j -> e) A_j / A_e (Cohen et al. 1988 shoot with it).
 
 By reciprocity, shooting patch j's radiosity B_j adds F(e -> j) B_j to the irradiance of every element e.
+``FormFactorCache`` keeps the rows and the patch-to-patch coupling F(i -> j) (their area-weighted means over each
+patch, ``patch_mean``) once computed, for the solvers (core.solver).
 """
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
+from .errors import BakeCancelled
 from .formfactor import hemicube_item_buffer, point_to_triangle_with_visibility, triangle_samples
 from .mesh import ElementMesh, Elements
+from .progress import never_cancelled
 from .raycast import RayCaster
 from .geometry import triangle_areas, triangle_unit_normals
 
@@ -115,3 +120,98 @@ def row_blocks(method: FormFactorMethod, patches: np.ndarray, receivers: Element
             if index + threads < len(blocks):
                 pending.append(pool.submit(method.block, blocks[index + threads], receivers))
             yield block, factors
+
+
+class FormFactorCache:
+    """Form factors known so far: the patch coupling F(i -> j) as (P, P) float32 columns, filled as patches
+    shoot, and, while n P float32 fit in ``row_budget_bytes``, the element rows F(e -> j) as an (n, P) matrix."""
+
+    def __init__(self, method: FormFactorMethod, patch_count: int, row_budget_bytes: int, threads: int):
+        self.method, self.threads, self.row_budget_bytes = method, threads, row_budget_bytes
+        self.coupling = np.zeros((patch_count, patch_count), dtype=np.float32)
+        self.known = np.zeros(patch_count, dtype=bool)
+        self.rows: np.ndarray | None = None
+        self.rows_known = np.zeros(patch_count, dtype=bool)
+
+    def compute(self, patches: np.ndarray, elements: Elements, patch_table: "Patches",
+                cancelled: Callable[[], bool] = never_cancelled) -> None:
+        """Compute element rows of the given patches (all cores); keep their coupling columns and rows."""
+        self._allocate_rows(len(elements.node))
+        for block, rows in row_blocks(self.method, patches, elements, self.threads):
+            if cancelled():
+                raise BakeCancelled("Bake cancelled while computing form factors.")
+            self.coupling[:, block] = patch_mean(rows, elements, patch_table)
+            self.known[block] = True
+            if self.rows is not None:
+                self.rows[:, block] = rows
+                self.rows_known[block] = True
+
+    def enclosure(self, area: np.ndarray) -> float:
+        """Area-weighted mean, over the patches that have shot, of the share of their light landing on the scene:
+        sum_i F(i -> j) A_i / A_j by reciprocity from patch j's coupling column (1 if none has shot); ``area``
+        (P,) are the patches' exposed areas."""
+        if not self.known.any():
+            return 1.0
+        column_sums = (self.coupling[:, self.known].astype(np.float64) * area[:, None]).sum(axis=0)
+        share = np.clip(column_sums / np.maximum(area[self.known], 1e-300), 0.0, 1.0)
+        return float((share * area[self.known]).sum() / area[self.known].sum())
+
+    def gather(self, weights: np.ndarray, elements: Elements, cancelled: Callable[[], bool] = never_cancelled,
+               store: bool = True):
+        """(n, 3) sum_j F(e -> j) weights_j over patches with non-zero weight, from stored or fresh rows.
+
+        With ``store`` False the elements are a subset (not the current set) and rows are neither read nor kept.
+        """
+        store = store and self.rows is not None
+        active = np.flatnonzero(np.abs(weights).sum(axis=1) > 0)
+        stored = active[self.rows_known[active]] if store else active[:0]
+        total = self.rows[:, stored] @ weights[stored] if len(stored) else np.zeros((len(elements.node), 3))
+        for block, rows in row_blocks(self.method, np.setdiff1d(active, stored), elements, self.threads):
+            if cancelled():
+                raise BakeCancelled("Bake cancelled while gathering light.")
+            total += rows @ weights[block]
+            if store:
+                self.rows[:, block] = rows
+                self.rows_known[block] = True
+        return total
+
+    def refine(self, old_position: np.ndarray, refined: Elements, cancelled: Callable[[], bool] = never_cancelled):
+        """Carry stored rows over to a refined element set; ``old_position`` is each refined element's position
+        in the old set, -1 for new ones, whose stored rows are computed here."""
+        if self.rows is None:
+            return
+        kept, new = old_position >= 0, np.flatnonzero(old_position < 0)
+        rows = np.zeros((len(old_position), self.rows.shape[1]), dtype=np.float32)
+        rows[kept] = self.rows[old_position[kept]]
+        self.rows = rows
+        subset = _subset(refined, new)
+        for block, block_rows in row_blocks(self.method, np.flatnonzero(self.rows_known), subset, self.threads):
+            if cancelled():
+                raise BakeCancelled("Bake cancelled during adaptive meshing.")
+            self.rows[np.ix_(new, block)] = block_rows
+
+    def _allocate_rows(self, count: int) -> None:
+        size = count * len(self.known) * 4
+        if self.rows is None and size <= self.row_budget_bytes:
+            self.rows = np.zeros((count, len(self.known)), dtype=np.float32)
+
+
+def _subset(elements: Elements, positions: np.ndarray) -> Elements:
+    return Elements(**{name: value[positions] for name, value in vars(elements).items()})
+
+
+def patch_mean(values: np.ndarray, elements: Elements, patches: Patches) -> np.ndarray:
+    """Mean of per-element values (n, c) over each patch, weighted by exposed area: (P, c) (0 where nothing of
+    the patch is exposed)."""
+    order = np.argsort(elements.patch, kind="stable")
+    patch_of = elements.patch[order]
+    starts = np.flatnonzero(np.r_[True, patch_of[1:] != patch_of[:-1]])
+    sums = np.add.reduceat(values[order] * elements.exposed_m2[order, None], starts, axis=0)
+    out = np.zeros((len(patches.area_m2), values.shape[1]), dtype=np.result_type(values, np.float64))
+    out[patch_of[starts]] = sums
+    return out / np.maximum(exposed_area(elements, patches), 1e-300)[:, None]
+
+
+def exposed_area(elements: Elements, patches: Patches) -> np.ndarray:
+    """(P,) sum of the exposed areas of each patch's elements."""
+    return np.bincount(elements.patch, weights=elements.exposed_m2, minlength=len(patches.area_m2))

@@ -1,0 +1,142 @@
+"""Probes of a surface point's surroundings by short rays and plane tests: is it buried in closed geometry, does
+its face rest on another, and where is the nearest free point.
+
+Lightmap texels, vertex colours and elements sample the surface at points; a point inside other geometry (a floor
+texel under a box standing on it, a wall texel behind a junction) must not take the light of where it is. Short
+rays along the surface that hit a back face first move the point out through that face (the approach of
+lightmappers such as Bakery), so no light leaks through contacts and no dark blotches appear beside them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import lengths, tangent_frames, triangle_unit_normals
+from .raycast import RayCaster
+
+CANDIDATES_PER_CHUNK = 4_000_000
+TANGENT_RAYS = 8
+INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
+PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
+CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
+
+
+def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,
+                         normals: np.ndarray, reach_m: float, offset_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Move points that lie inside closed geometry out through the nearest back face along the surface.
+
+    Only points enclosed by geometry (``inside_closed_geometry``) move: a point beside an open shell (a
+    single-sided wall seen from behind, an arch's soffit) is where it should be, and pushing it through the shell
+    would put it in the sunlit space on the other side. Eight rays per enclosed point in the tangent plane,
+    ``reach_m`` long (about a texel; a scalar or one length per point), start ``offset_m`` above the surface; the
+    nearest one that hits a back face (a face turned away from the ray: the point is behind it) moves the point
+    to just past that face. Returns the points and a (m,) mask of those moved.
+    """
+    out, moved = points.copy(), np.zeros(len(points), dtype=bool)
+    enclosed = np.flatnonzero(inside_closed_geometry(caster, scene_triangles_m, points, normals, offset_m))
+    origins, directions = tangent_rays(points[enclosed], normals[enclosed], offset_m)
+    distance, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
+    reach = np.repeat(np.broadcast_to(reach_m, len(points))[enclosed], TANGENT_RAYS)
+    distance = np.where(behind & (distance <= reach), distance, np.inf).reshape(-1, TANGENT_RAYS)
+    nearest = distance.argmin(axis=1)
+    found = np.isfinite(distance.min(axis=1))
+    step = distance[found, nearest[found]] + 2 * offset_m
+    out[enclosed[found]] += directions.reshape(-1, TANGENT_RAYS, 3)[found, nearest[found]] * step[:, None]
+    moved[enclosed[found]] = True
+    return out, moved
+
+
+def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,
+                           normals: np.ndarray, offset_m: float) -> np.ndarray:
+    """(m,) True where a surface point is buried in closed geometry (a floor under a box standing on it, the
+    inside of a closed prop or of an open-bottomed box resting on the floor): seen from ``offset_m`` above it,
+    the ray along the normal meets a back face, and the eight rays along the tangent directions all meet a face,
+    most of them (with the normal's, ``INSIDE_BACK_FACES`` of the nine) a back face. An open surface above (a
+    single-sided table top) leaves tangent rays free, and a surface facing a front face (a gallery's ceiling over
+    its floor, between single-sided walls) is not inside, whatever its tangent rays meet. (Not every tangent ray
+    need meet a back face: where a box's bottom lies on the floor, a ray meets the two coincident faces at once,
+    and Embree reports either.) Only points whose normal ray meets a back face cast the tangent rays."""
+    inside = np.zeros(len(points), dtype=bool)
+    _, behind = back_face_hits(caster, scene_triangles_m, points + offset_m * normals, normals)
+    candidates = np.flatnonzero(behind)
+    if len(candidates) == 0:
+        return inside
+    origins, directions = tangent_rays(points[candidates], normals[candidates], offset_m)
+    distance, tangent_behind = back_face_hits(caster, scene_triangles_m, origins, directions)
+    all_hit = np.isfinite(distance).reshape(-1, TANGENT_RAYS).all(axis=1)
+    backs = 1 + tangent_behind.reshape(-1, TANGENT_RAYS).sum(axis=1)
+    inside[candidates] = all_hit & (backs >= INSIDE_BACK_FACES)
+    return inside
+
+
+def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, points: np.ndarray,
+                         tolerance_m: float) -> np.ndarray:
+    """(m,) True where a surface point lies on a face resting against an opposite-facing face in the same plane
+    (the bottom of a box standing on a floor). No light reaches it, and Cycles bakes it black; but a sample point
+    lifted off the surface passes through the other face, and one Embree ray cannot tell two coplanar faces
+    apart. Planes are matched by quantised normal and offset (``tolerance_m``), one step per plane, not per
+    texel; each point is then tested against the triangles of the opposite plane that are not behind it by more
+    than CONTACT_BEHIND of the tolerance: two sheets back to back (a decal 3 mm behind a single-sided wall) face
+    open space on both sides and stay lit."""
+    planes, plane_of, normals = triangle_planes(scene_triangles_m, tolerance_m)
+    number = {tuple(plane): index for index, plane in enumerate(planes.tolist())}
+    point_plane = plane_of[point_triangle]
+    contact = np.zeros(len(points), dtype=bool)
+    for plane in np.unique(point_plane):  # one step per plane
+        opposite = number.get(tuple((-planes[plane]).tolist()))
+        if opposite is not None:
+            here = np.flatnonzero(point_plane == plane)
+            contact[here] = inside_any_triangle(points[here], normals[point_triangle[here]],
+                                                scene_triangles_m[plane_of == opposite], CONTACT_BEHIND * tolerance_m)
+    return contact
+
+
+def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The planes of (T, 3, 3) triangles, matched by normal (to 1/PLANE_NORMAL_STEPS per component) and offset (to
+    ``tolerance_m``): (P, 4) int64 plane keys (negated, the same plane facing the other way), (T,) each
+    triangle's plane, and (T, 3) the triangles' unit normals."""
+    normals = triangle_unit_normals(triangles_m)
+    offsets = np.einsum("tk,tk->t", normals, triangles_m[:, 0])
+    keys = np.concatenate([np.round(normals * PLANE_NORMAL_STEPS), np.round(offsets / tolerance_m)[:, None]],
+                          axis=1).astype(np.int64)
+    planes, plane_of = np.unique(keys, axis=0, return_inverse=True)
+    return planes, plane_of.ravel(), normals
+
+
+def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
+    """(p,) whether each point (near the triangles' plane) lies inside any of the (q, 3, 3) triangles whose plane
+    is at most ``behind_m`` behind it along its unit normal."""
+    inside = np.zeros(len(points), dtype=bool)
+    step = max(1, CANDIDATES_PER_CHUNK // max(1, len(triangles)))
+    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    det = np.where(np.abs(d11 * d22 - d12 * d12) > 1e-300, d11 * d22 - d12 * d12, np.inf)
+    for start in range(0, len(points), step):  # chunks of points x triangles
+        rel = points[start:start + step, None, :] - triangles[None, :, 0]
+        r1, r2 = (rel * e1).sum(-1), (rel * e2).sum(-1)
+        u, v = (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
+        height = np.einsum("pqk,pk->pq", rel, normals[start:start + step])  # > 0: the triangle is behind
+        inside[start:start + step] = ((u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) &
+                                      (height <= behind_m)).any(axis=1)
+    return inside
+
+
+def tangent_rays(points: np.ndarray, normals: np.ndarray, offset_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(m * 8, 3) origins ``offset_m`` above the points and unit directions at 45 degree steps in their tangent
+    planes."""
+    frames = tangent_frames(normals)
+    angles = np.arange(TANGENT_RAYS) * 2 * np.pi / TANGENT_RAYS
+    local = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    directions = np.einsum("dk,mkj->mdj", local, frames[:, :2]).reshape(-1, 3)
+    return np.repeat(points + offset_m * normals, TANGENT_RAYS, axis=0), directions
+
+
+def back_face_hits(caster: RayCaster, scene_triangles_m: np.ndarray, origins: np.ndarray,
+                   directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance to the first hit of each ray (inf for none) and whether that face is turned away from the ray."""
+    hit, bary = caster.first_hit(origins, directions)
+    found = hit >= 0
+    hit_triangles = scene_triangles_m[np.maximum(hit, 0)]
+    hit_points = np.einsum("mc,mck->mk", bary, hit_triangles)
+    distance = np.where(found, lengths(hit_points - origins), np.inf)
+    facing = np.einsum("mk,mk->m", triangle_unit_normals(hit_triangles), directions)
+    return distance, found & (facing > 0)
