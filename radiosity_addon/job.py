@@ -133,7 +133,7 @@ def apply(job: Job, staged: StagedFiles) -> dict:
                                        job.lightmap_folder, staged)
         warnings += job.lightmap_plan.warnings + more
     if job.user.vertex_colors:
-        objects, more = write_vertex_colors(job.export, job.solution, job.user.attribute_name)
+        objects, more = write_vertex_colors(job.export, job.solution, job.user)
         warnings += more
     objects = _merge(objects, entries)
     if job.user.create_radiosity_mesh:

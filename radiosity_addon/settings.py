@@ -87,6 +87,15 @@ SETTINGS = (
         ("BOTH", "Both", "Vertex colours and a lightmap"))),
     Setting("attribute_name", "Attribute", "Radiosity", "Name of the colour attribute the bake writes (replaced "
             "on rebake)", flag="--attribute", section="vertex_colors"),
+    Setting("vertex_domain", "Domain", "CORNER", "What the colour attribute holds a colour for",
+            flag="--vertex-domain", section="vertex_colors", items=(
+                ("CORNER", "Face Corner", "One colour per face corner: creases stay sharp"),
+                ("POINT", "Vertex", "One colour per vertex, the mean of its corners (as Cycles bakes into a "
+                                    "vertex attribute), for engines and exporters that want one"))),
+    Setting("own_mesh_copies", "Copies Get Own Mesh", True, "Give each baked object that shares its mesh with "
+            "another (linked duplicates) its own copy of the mesh, as Make Single User > Object Data does, so that "
+            "each holds its own light (Undo reverses it); off, they share the first one's colours",
+            flag="--keep-shared-meshes", negate=True, section="vertex_colors"),
     Setting("texels_per_metre", "Texels per Metre", 0.0, "Lightmap density; 0 follows the quality preset "
             "(Medium: 256 texels across the scene), or the resolution when one is set",
             flag="--texels-per-meter", low=0.0, high=1e4, soft_high=1024.0, section="lightmap",

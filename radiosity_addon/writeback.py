@@ -13,6 +13,7 @@ import numpy as np
 from ..core import SceneError
 from ..core.projected_light import projected_light
 from .export import Export, ExportedObject, world_corner_normals, world_positions
+from .settings import UserSettings
 
 OWNED_ATTRIBUTE = "radiosity_attribute"
 RADIOSITY_MESH_TAG = "radiosity_mesh"
@@ -28,23 +29,35 @@ def check_attribute_name_free(export: Export, name: str) -> None:
                              "that this add-on did not make; choose another attribute name.")
 
 
-def write_vertex_colors(export: Export, solution, attribute: str) -> tuple[list[dict], list[str]]:
-    """Write the light at every loop of every baked mesh; returns per-object report entries and warnings."""
+def write_vertex_colors(export: Export, solution, user: UserSettings) -> tuple[list[dict], list[str]]:
+    """Write the light of every baked object into its mesh's colour attribute (user.attribute_name, per corner or
+    per vertex: user.vertex_domain); returns per-object report entries and warnings. An object that shares its mesh
+    with one written before gets its own copy of the mesh first (user.own_mesh_copies), as Blender's Make Single
+    User > Object Data does; else it keeps the first one's colours, with a warning."""
     kept = export.scene_index_of_input()
-    written, outputs, warnings = {}, [], []
+    written, outputs, warnings, copied = {}, [], [], []
     for item in export.objects:
         if not item.writable:
             continue
         obj, mesh = bpy.data.objects[item.name], bpy.data.meshes[item.mesh_name]
-        if mesh.name in written:
+        if mesh.name in written and not user.own_mesh_copies:
             warnings.append(f"Object '{item.name}' shares mesh '{mesh.name}' with '{written[mesh.name]}': its colour "
                             "attribute holds the light of the first of them.")
             continue
+        entry = {"name": item.name, "color_attribute": user.attribute_name, "uv_map": None, "image": None,
+                 "resolution": None}
+        if mesh.name in written:
+            obj.data = mesh = mesh.copy()
+            entry["own_mesh_copy"] = mesh.name
+            copied.append(item.name)
         light = loop_light(item, solution, kept, obj)
-        _write_attribute(mesh, attribute, light)
+        _write_attribute(mesh, user.attribute_name, light, user.vertex_domain)
         written[mesh.name] = item.name
-        outputs.append({"name": item.name, "color_attribute": attribute, "uv_map": None, "image": None,
-                        "resolution": None})
+        outputs.append(entry)
+    if copied:
+        names = ", ".join(f"'{name}'" for name in copied[:5]) + (", ..." if len(copied) > 5 else "")
+        warnings.append(f"{len(copied)} object(s) that shared a mesh got their own copy of it, to hold their own "
+                        f"light (Make Single User; Undo reverses it): {names}.")
     return outputs, warnings
 
 
@@ -72,11 +85,19 @@ def _projected_light(item, solution, triangles, obj) -> np.ndarray:
                            world_corner_normals(mesh, matrix), PROJECTION_REACH * solution.scene.size_m)
 
 
-def _write_attribute(mesh, name: str, light: np.ndarray) -> None:
+def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER") -> None:
+    """The colour attribute ``name`` (replacing ours) holding (loops, 3) light per corner, or per vertex the mean of
+    its corners (what Cycles bakes into a vertex attribute)."""
     existing = mesh.color_attributes.get(name)
     if existing is not None:
         mesh.color_attributes.remove(existing)
-    attribute = mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER")
+    if domain == "POINT":
+        vertex = np.empty(len(mesh.loops), dtype=np.int64)
+        mesh.loops.foreach_get("vertex_index", vertex)
+        count = np.maximum(np.bincount(vertex, minlength=len(mesh.vertices)), 1)
+        light = np.stack([np.bincount(vertex, light[:, c], len(mesh.vertices)) for c in range(3)], axis=1)
+        light /= count[:, None]
+    attribute = mesh.color_attributes.new(name, "FLOAT_COLOR", domain)
     rgba = np.concatenate([light, np.ones((len(light), 1))], axis=1).astype(np.float32)
     attribute.data.foreach_set("color", rgba.ravel())
     mesh[OWNED_ATTRIBUTE] = name
