@@ -29,7 +29,7 @@ from .memory import check_bake_memory, default_limit_gb
 from .mesh import build_mesh, bury, elements_of, node_reflectance
 from .nearfield import near_field_irradiance
 from .progress import Progress, Timer, never_cancelled, no_progress
-from .raycast import RayCaster
+from .raycast import RayCaster, first_use_message
 from .scene import MAX_REFLECTANCE, Scene
 from .formfactor_rows import HemicubeRows, Patches, RayCastRows
 from .solution import FRONT, SolvedElements, Solution
@@ -115,6 +115,8 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
                       settings.patch_size_m, settings.max_memory_gb or default_limit_gb())
     timer = Timer()
     offset = RAY_OFFSET_FRACTION * scene.size_m
+    if first_use_message():  # Warp compiles its kernels on a machine's first bake: say so before the wait
+        progress(0.0, first_use_message())
     caster = RayCaster(scene.triangles, settings.threads or None)
     solve_scene = _hierarchical if settings.solver == "hierarchical" else _classic
     mesh, elements, state, ambient, counts = solve_scene(scene, settings, caster, offset, timer, progress,

@@ -1,43 +1,62 @@
-"""Batched ray queries through Embree (embreex), spread over the machine's cores.
+"""Batched ray queries over a triangle scene, spread over the machine's cores, through one of two backends:
 
-embreex releases the GIL inside ``run``, so a thread pool over chunks of rays uses every core.
-All arrays are numpy; there is never a Python loop per ray. Every scene shares one Embree device per process:
-a device per scene (embreex's default) starts threads of its own, and a process holding a thousand scenes (a
-farm worker, a fuzzer) then fails to start more and crashes.
+- Embree (embreex, core.raycast_embree): the default wherever it has a wheel (Linux, Windows);
+- Warp (warp-lang, core.raycast_warp): NVIDIA Warp's BVH on the CPU, with wheels for macOS arm64 too.
+
+The environment variable RADIOSITY_RAY_BACKEND (embree or warp) forces one; the test suites run with each.
+A backend is a module with a ``Scene(triangles)`` class answering ``occluded`` and ``closest`` for float32 arrays
+of rays, and ``first_use_message()``; it is imported by name, as an optional dependency, when first needed. All
+arrays are numpy; there is never a Python loop per ray.
 """
 from __future__ import annotations
 
+import importlib
+import importlib.util
 import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from embreex import rtcore, rtcore_scene
-from embreex.mesh_construction import TriangleMesh
+
+from .errors import SettingsError
 
 CHUNK_RAYS = 65536
-_shared = {}
+BACKENDS = {"embree": ("embreex", ".raycast_embree"), "warp": ("warp", ".raycast_warp")}
+BACKEND_VARIABLE = "RADIOSITY_RAY_BACKEND"
 
 
-def _device():
-    """The process's one Embree device, made on first use."""
-    if "device" not in _shared:
-        _shared["device"] = rtcore.EmbreeDevice()
-    return _shared["device"]
+def backend_name() -> str:
+    """The backend this process uses: the one RADIOSITY_RAY_BACKEND names, else the first one installed."""
+    forced = os.environ.get(BACKEND_VARIABLE, "")
+    if forced:
+        if forced not in BACKENDS:
+            raise SettingsError(f"{BACKEND_VARIABLE} must be one of {', '.join(BACKENDS)}, got '{forced}'.")
+        return forced
+    for name, (package, _) in BACKENDS.items():
+        if importlib.util.find_spec(package) is not None:
+            return name
+    raise SettingsError("No ray-casting library is installed: the extension needs embreex or warp-lang.")
+
+
+def _backend():
+    return importlib.import_module(BACKENDS[backend_name()][1], __package__)
+
+
+def first_use_message() -> str | None:
+    """A message to show before the first scene is built when the backend needs time then (Warp compiles its
+    kernels once per machine); None otherwise."""
+    return _backend().first_use_message()
 
 
 class RayCaster:
-    """Embree scene over (T, 3, 3) triangles; counts the rays it casts in ``rays_cast``. Pickles as its triangles
-    and rebuilds the scene when unpickled, with the threads of the machine that loads it."""
+    """A ray-casting scene over (T, 3, 3) triangles; counts the rays it casts in ``rays_cast``. Pickles as its
+    triangles and rebuilds the scene when unpickled, with the threads of the machine that loads it."""
 
     def __init__(self, triangles: np.ndarray, threads: int | None = None):
         self._triangles = np.ascontiguousarray(triangles, dtype=np.float32)
-        self._scene = rtcore_scene.EmbreeScene(_device())
-        TriangleMesh(self._scene, self._triangles)
+        self._scene = _backend().Scene(self._triangles)
         self._threads = max(1, threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
         self.rays_cast = 0
-        # Build the BVH now, not inside the first worker thread.
-        self._scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32))
 
     def __getstate__(self) -> dict:
         return {"triangles": self._triangles, "rays_cast": self.rays_cast}
@@ -48,17 +67,13 @@ class RayCaster:
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, distances: np.ndarray) -> np.ndarray:
         """True where something lies along origin + t direction for 0 < t < distance (unit directions)."""
-        hits = self._run(origins, directions, distances, "OCCLUDED")
-        return hits >= 0
+        return self._run(self._scene.occluded, origins, directions, distances)
 
     def first_hit(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """First triangle hit along unit directions: (m,) index (-1 for none) and (m, 3) barycentrics.
-
-        Embree's (u, v) put the hit at (1 - u - v) v0 + u v1 + v v2.
-        """
-        result = self._run(origins, directions, np.full(len(origins), np.inf), "INTERSECT")
-        u, v = result[:, 1], result[:, 2]
-        return result[:, 0].astype(np.int64), np.stack([1.0 - u - v, u, v], axis=1)
+        """First triangle hit along unit directions: (m,) index (-1 for none) and (m, 3) barycentrics, the hit
+        at (1 - u - v) v0 + u v1 + v v2."""
+        hit, u, v = self._run(self._scene.closest, origins, directions, np.full(len(origins), np.inf))
+        return hit, np.stack([1.0 - u - v, u, v], axis=1)
 
     def hit_distance(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """(m,) distance to the first surface along each unit direction (inf where the ray escapes)."""
@@ -66,24 +81,22 @@ class RayCaster:
         points = np.einsum("mc,mck->mk", bary, self._triangles[np.maximum(hit, 0)])
         return np.where(hit >= 0, np.linalg.norm(points - origins, axis=1), np.inf)
 
-    def _run(self, origins, directions, distances, query):
+    def _run(self, query, origins, directions, distances):
+        """``query`` over chunks of CHUNK_RAYS rays on the thread pool; its results concatenated."""
         count = len(origins)
         self.rays_cast += count
-        origins = np.ascontiguousarray(origins, dtype=np.float32)
-        directions = np.ascontiguousarray(directions, dtype=np.float32)
+        origins = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
+        directions = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
         distances = np.ascontiguousarray(np.minimum(distances, np.finfo(np.float32).max), dtype=np.float32)
+        if count == 0:  # the backends' answer to one ray, emptied: the same types and shapes for none
+            result = query(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32), np.ones(1, np.float32))
+            return tuple(column[:0] for column in result) if isinstance(result, tuple) else result[:0]
         bounds = [(start, min(start + CHUNK_RAYS, count)) for start in range(0, count, CHUNK_RAYS)]
-        work = lambda b: self._query(origins[b[0]:b[1]], directions[b[0]:b[1]], distances[b[0]:b[1]], query)
+        work = lambda b: query(origins[b[0]:b[1]], directions[b[0]:b[1]], distances[b[0]:b[1]])
         parts = list(self._pool.map(work, bounds)) if self._pool and len(bounds) > 1 else [work(b) for b in bounds]
-        if not parts:
-            return np.zeros((0, 3) if query == "INTERSECT" else 0)
+        if isinstance(parts[0], tuple):
+            return tuple(np.concatenate(column) for column in zip(*parts))
         return np.concatenate(parts)
-
-    def _query(self, origins, directions, distances, query):
-        if query == "OCCLUDED":
-            return self._scene.run(origins, directions, dists=distances.copy(), query="OCCLUDED")
-        info = self._scene.run(origins, directions, dists=distances.copy(), output=1)
-        return np.stack([info["primID"], info["u"], info["v"]], axis=1).astype(np.float64)
 
     def close(self) -> None:
         if self._pool:

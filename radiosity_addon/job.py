@@ -16,6 +16,7 @@ from ..core.atlas import AtlasSize, uv_area
 from ..core.geometry import triangle_areas
 from ..core.lightmap import LightmapSettings, bake_lightmap
 from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory
+from ..core.raycast import backend_name
 from ..core.staged_files import StagedFiles
 from .export import Export, export_scene, make_linked_local
 from .lightmaps import LightmapPlan, plan_lightmap, write_lightmap
@@ -149,6 +150,7 @@ def apply(job: Job, staged: StagedFiles) -> dict:
         "solve": solution.counts,
         "residual": solution.residual,
         "rays": solution.rays_cast,
+        "ray_backend": backend_name(),
         "dropped_triangles": job.export.scene.dropped_triangles,
         "settings": job.settings.as_dict(),
         "memory": job.memory,

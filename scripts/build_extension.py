@@ -2,9 +2,11 @@
 
     .venv/bin/python scripts/build_extension.py [--output-dir dist]
 
-Copies the tracked sources into build/extension, downloads the embreex and xatlas wheels for every platform in the manifest
-and for Python 3.11 (Blender 4.2-5.0) and 3.13 (Blender 5.1+) into its wheels/ folder (never committed), lists them
-in the copied manifest, then runs `blender_ext.py validate` and `build --split-platforms`.
+Copies the tracked sources into build/extension, downloads the wheels each platform in the manifest bundles (BUNDLED:
+a ray-casting library, embreex or, on macOS where embreex has no wheel, warp-lang; and xatlas) for Python 3.11
+(Blender 4.2-5.0) and 3.13 (Blender 5.1+) into its wheels/ folder (never committed), lists them in the copied
+manifest, then runs `blender_ext.py validate` and `build --split-platforms`, which gives each platform's zip the
+wheels whose tags match it.
 """
 from __future__ import annotations
 
@@ -18,7 +20,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 # pip takes explicit --platform tags literally, so list every manylinux level the pinned wheels use.
 PLATFORM_TAGS = {"linux-x64": ["manylinux_2_28_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64"],
-                 "windows-x64": ["win_amd64"]}
+                 "windows-x64": ["win_amd64"], "macos-arm64": ["macosx_11_0_arm64"]}
 PYTHONS = ("3.11", "3.13")
 
 
@@ -32,12 +34,15 @@ def blender_ext() -> Path:
     return found[-1]
 
 
-BUNDLED = ("embreex", "xatlas")  # what Blender does not ship (it ships numpy and OpenImageIO)
+# What Blender does not ship (it ships numpy and OpenImageIO), per platform: core.raycast uses embreex where it
+# has wheels and Warp elsewhere.
+BUNDLED = {"linux-x64": ("embreex", "xatlas"), "windows-x64": ("embreex", "xatlas"),
+           "macos-arm64": ("warp-lang", "xatlas")}
 
 
-def bundled_pins() -> list[str]:
+def bundled_pins(platform: str) -> list[str]:
     lines = (ROOT / "requirements" / "core.txt").read_text().splitlines()
-    return [line.strip() for line in lines if line.split("==")[0] in BUNDLED]
+    return [line.strip() for line in lines if line.split("==")[0] in BUNDLED[platform]]
 
 
 def copy_sources(target: Path) -> None:
@@ -55,7 +60,7 @@ def download_wheels(target: Path, platforms: list[str]) -> list[str]:
             subprocess.run([sys.executable, "-m", "pip", "download", "--quiet", "--no-deps", "--only-binary=:all:",
                             "--python-version", python,
                             *(f"--platform={tag}" for tag in PLATFORM_TAGS[platform]), "-d", str(wheels),
-                            *bundled_pins()], check=True)
+                            *bundled_pins(platform)], check=True)
     return sorted(f"./wheels/{w.name}" for w in wheels.glob("*.whl"))
 
 
