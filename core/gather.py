@@ -62,10 +62,13 @@ def gather_pays(solution) -> bool:
 
 
 def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.ndarray, samples_per_edge: int,
-                 offset_m: float, seed: int, face_normals: np.ndarray | None = None) -> np.ndarray:
+                 offset_m: float, seed: int, face_normals: np.ndarray | None = None, near_m: float = 0.0,
+                 near_samples_per_edge: int = 0) -> np.ndarray:
     """(m, 3) indirect and world light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by
     its rays) with (m, 3) unit (shading) normals, from s^2 gather rays each; ``face_normals`` (m, 3), where they
-    differ from the shading normals, cut off the directions below the face."""
+    differ from the shading normals, cut off the directions below the face. Where a ray lands within ``near_m``
+    of its origin, the light there is gathered again by ``near_samples_per_edge``^2 rays instead of taken from the
+    element: close by, in a concave corner, the element's one value is not the light of the spot the ray meets."""
     rays = samples_per_edge ** 2
     step = max(1, RAYS_PER_CHUNK // rays)
     faces = normals if face_normals is None else face_normals
@@ -73,11 +76,13 @@ def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.nd
     for start in range(0, len(points), step):  # bounded memory: at most RAYS_PER_CHUNK rays at once
         stop = min(start + step, len(points))
         light[start:stop] = _gather_chunk(solution, caster, points[start:stop], normals[start:stop],
-                                          faces[start:stop], samples_per_edge, offset_m, seed + start)
+                                          faces[start:stop], samples_per_edge, offset_m, seed + start, near_m,
+                                          near_samples_per_edge)
     return light
 
 
-def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_edge, offset_m, seed):
+def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_edge, offset_m, seed, near_m,
+                  near_samples_per_edge):
     count, rays = len(points), samples_per_edge ** 2
     local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
     directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals)).reshape(-1, 3)
@@ -89,7 +94,16 @@ def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_e
     landed = np.flatnonzero((hit >= 0) & above)
     side = (np.einsum("mk,mk->m", triangle_unit_normals(triangles[hit[landed]]), directions[landed]) > 0)
     side = side.astype(np.int64)
+    near = np.zeros(len(landed), dtype=bool)
+    if near_m > 0 and near_samples_per_edge > 0:
+        hit_points = np.einsum("mc,mck->mk", bary[landed], triangles[hit[landed]])
+        near = lengths(hit_points - origins[landed]) < near_m
     radiosity = np.zeros((len(hit), 3))
-    radiosity[landed] = solution.reflected_radiosity(hit[landed], bary[landed], side, seed)
+    far = landed[~near]
+    radiosity[far] = solution.reflected_radiosity(hit[far], bary[far], side[~near], seed)
+    close = landed[near]
+    if len(close):
+        radiosity[close] = solution.reflected_radiosity(hit[close], bary[close], side[near], seed + len(hit),
+                                                        gather_samples_per_edge=near_samples_per_edge)
     radiosity[(hit < 0) & above] = np.pi * np.asarray(solution.scene.world.radiance, dtype=np.float64)
     return radiosity.reshape(count, rays, 3).mean(axis=1) / np.pi

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .direct_light import DirectLighting
+from .gather import final_gather
 from .geometry import triangle_unit_normals
 from .interpolation import ReceiverField
 from .mesh import ElementMesh, weld_vertices
@@ -113,11 +114,7 @@ class Solution:
         reflectance get 0, as in Cycles' Diffuse bake without Color (it divides by the albedo).
         """
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
-        barycentric = self._uncovered(scene_triangle, np.asarray(barycentric, dtype=np.float64))
-        points = np.einsum("mc,mck->mk", barycentric, self.scene.triangles[scene_triangle])
-        normals = triangle_unit_normals(self.scene.triangles[scene_triangle])
-        solved, node = self.pieces(scene_triangle, barycentric)
-        points[solved] = inset(points[solved], self.mesh.corners(node).mean(axis=1), 4 * self.offset_m)
+        barycentric, points, normals = self.sample_points(scene_triangle, barycentric)
         if not direct_per_point:
             light = self._interpolate(self._total_light(), points, normals, scene_triangle, barycentric)
         else:
@@ -125,6 +122,18 @@ class Solution:
             light = self.direct_light(points, shading, scene_triangle, barycentric) + \
                 self.indirect_light(points, normals, scene_triangle, barycentric)
         return self.output_light(light, scene_triangle)
+
+    def sample_points(self, scene_triangle: np.ndarray,
+                      barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Where light is evaluated for surface points: (m, 3) barycentrics (those inside closed geometry moved to
+        the nearest visible point of their face), (m, 3) world points inset from their piece's edges (so that rays
+        from a crease do not start inside the other surface), and (m, 3) unit face normals."""
+        barycentric = self._uncovered(scene_triangle, np.asarray(barycentric, dtype=np.float64))
+        points = np.einsum("mc,mck->mk", barycentric, self.scene.triangles[scene_triangle])
+        normals = triangle_unit_normals(self.scene.triangles[scene_triangle])
+        solved, node = self.pieces(scene_triangle, barycentric)
+        points[solved] = inset(points[solved], self.mesh.corners(node).mean(axis=1), 4 * self.offset_m)
+        return barycentric, points, normals
 
     def _uncovered(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
         """Barycentrics of the points, those inside closed geometry (a decimated floor's corner under a wall)
@@ -179,13 +188,15 @@ class Solution:
         return self._interpolate(self._indirect_light(), points, normals, scene_triangle, barycentric)
 
     def reflected_radiosity(self, scene_triangle: np.ndarray, barycentric: np.ndarray, side: np.ndarray,
-                            seed_offset: int = 0) -> np.ndarray:
+                            seed_offset: int = 0, gather_samples_per_edge: int = 0) -> np.ndarray:
         """(m, 3) reflected radiosity rho H (W m^-2, emission excluded) on the given side (0 front, 1 back) of
         surface points: what a final-gather ray sees where it lands. The first bounce is exact at the point: the
         reflectance there (texture included) x (direct irradiance by one shadow ray to one light chosen by
         importance, ``seed_offset`` shifting their seed, + the indirect irradiance of the element side under it).
         So a sunlit patch and the shade beside it on one coarse element reflect what each receives (two-pass
-        methods, radiosity paper section 10). 0 on dead sides and unsolved triangles."""
+        methods, radiosity paper section 10). With ``gather_samples_per_edge`` s > 0 the indirect irradiance is
+        gathered there too, by s^2 rays (core.gather.final_gather, the world by its escaping rays), instead of
+        taken from the element. 0 on dead sides and unsolved triangles."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         barycentric = np.asarray(barycentric, dtype=np.float64)
         solved, node = self.pieces(scene_triangle, barycentric)
@@ -197,9 +208,14 @@ class Solution:
         triangles = self.scene.triangles[scene_triangle[lit]]
         points = np.einsum("mc,mck->mk", barycentric[lit], triangles)
         normals = triangle_unit_normals(triangles) * np.where(face[alive] == FRONT, 1.0, -1.0)[:, None]
-        irradiance = self.direct.irradiance(points, normals, 1, seed_offset, one_light=True) + \
-            np.pi * self._indirect_light()[element[alive], face[alive]]
-        out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * irradiance
+        gathered = gather_samples_per_edge > 0
+        if gathered:
+            indirect = np.pi * final_gather(self, self.caster, points[:, None, :], normals, gather_samples_per_edge,
+                                            self.offset_m, seed_offset)
+        else:
+            indirect = np.pi * self._indirect_light()[element[alive], face[alive]]
+        irradiance = self.direct.irradiance(points, normals, 1, seed_offset, one_light=True, world=not gathered)
+        out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * (irradiance + indirect)
         return out
 
     def pieces(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -92,6 +92,18 @@ SETTINGS = (
                 ("CORNER", "Face Corner", "One colour per face corner: creases stay sharp"),
                 ("POINT", "Vertex", "One colour per vertex, the mean of its corners (as Cycles bakes into a "
                                     "vertex attribute), for engines and exporters that want one"))),
+    Setting("vertex_indirect", "Indirect Light", "auto", "How colour attributes get indirect light",
+            flag="--vertex-indirect", section="vertex_colors", items=(
+                ("auto", "Automatic", "Final gather at corners where surfaces lie close by (creases, contacts), "
+                                      "interpolation elsewhere"),
+                ("gather", "Final Gather", "Rays from each corner look up the radiosity solution: the corner's own "
+                                           "light, also in a room's corners; noisier on open surfaces"),
+                ("interpolate", "Interpolate", "From the radiosity elements around the corner: fast, smooth; too "
+                                               "bright in concave corners"))),
+    Setting("vertex_gather_samples", "Corner Gather Samples", 16, "Final-gather rays per corner: this number "
+            "squared (corners of one vertex with one normal share them)", flag="--vertex-gather-samples", low=1,
+            high=64, soft_high=32, section="vertex_colors",
+            enabled_when=lambda settings: settings.vertex_indirect != "interpolate"),
     Setting("own_mesh_copies", "Copies Get Own Mesh", True, "Give each baked object that shares its mesh with "
             "another (linked duplicates) its own copy of the mesh, as Make Single User > Object Data does, so that "
             "each holds its own light (Undo reverses it); off, they share the first one's colours",

@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from ..core import SceneError
-from ..core.projected_light import projected_light
+from ..core.vertex_light import corner_light, projected_light
 from .export import Export, ExportedObject, world_corner_normals, world_positions
 from .settings import UserSettings
 
@@ -31,9 +31,10 @@ def check_attribute_name_free(export: Export, name: str) -> None:
 
 def write_vertex_colors(export: Export, solution, user: UserSettings) -> tuple[list[dict], list[str]]:
     """Write the light of every baked object into its mesh's colour attribute (user.attribute_name, per corner or
-    per vertex: user.vertex_domain); returns per-object report entries and warnings. An object that shares its mesh
-    with one written before gets its own copy of the mesh first (user.own_mesh_copies), as Blender's Make Single
-    User > Object Data does; else it keeps the first one's colours, with a warning."""
+    per vertex: user.vertex_domain; indirect light by user.vertex_indirect); returns per-object report entries and
+    warnings. An object that shares its mesh with one written before gets its own copy of the mesh first
+    (user.own_mesh_copies), as Blender's Make Single User > Object Data does; else it keeps the first one's
+    colours, with a warning."""
     kept = export.scene_index_of_input()
     written, outputs, warnings, copied = {}, [], [], []
     for item in export.objects:
@@ -50,7 +51,7 @@ def write_vertex_colors(export: Export, solution, user: UserSettings) -> tuple[l
             obj.data = mesh = mesh.copy()
             entry["own_mesh_copy"] = mesh.name
             copied.append(item.name)
-        light = loop_light(item, solution, kept, obj)
+        light = loop_light(item, solution, kept, obj, user.vertex_indirect, user.vertex_gather_samples)
         _write_attribute(mesh, user.attribute_name, light, user.vertex_domain)
         written[mesh.name] = item.name
         outputs.append(entry)
@@ -61,28 +62,30 @@ def write_vertex_colors(export: Export, solution, user: UserSettings) -> tuple[l
     return outputs, warnings
 
 
-def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj) -> np.ndarray:
-    """(loops, 3) light per loop of the original mesh: direct light by shadow rays at each corner, indirect light
-    interpolated from the elements (core.solution.Solution.evaluate)."""
+def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj, method: str,
+               gather_samples_per_edge: int) -> np.ndarray:
+    """(loops, 3) light per loop of the original mesh (core.vertex_light.corner_light: direct light traced at
+    each corner, indirect light by ``method``)."""
     triangles = kept[item.first_triangle + np.arange(item.triangle_count)]
     if item.same_topology:
         valid = triangles >= 0
         corner_bary = np.tile(np.eye(3), (int(valid.sum()), 1))
-        values = solution.evaluate(np.repeat(triangles[valid], 3), corner_bary, direct_per_point=True)
+        values = corner_light(solution, np.repeat(triangles[valid], 3), corner_bary, method, gather_samples_per_edge)
         light = np.zeros((len(obj.data.loops), 3))
         light[item.corner_loops[valid].ravel()] = values
         return np.nan_to_num(light)
-    return _projected_light(item, solution, triangles, obj)
+    return _projected_light(item, solution, triangles, obj, method, gather_samples_per_edge)
 
 
-def _projected_light(item, solution, triangles, obj) -> np.ndarray:
+def _projected_light(item, solution, triangles, obj, method: str, gather_samples_per_edge: int) -> np.ndarray:
     """Light for meshes whose modifiers changed the topology: each original corner takes the light of the nearest
-    point of the object's baked surface along its normal (core.projected_light)."""
+    point of the object's baked surface along its normal (core.vertex_light.projected_light)."""
     mesh, matrix = obj.data, np.array(obj.matrix_world)
     vertex = np.empty(len(mesh.loops), dtype=np.int32)
     mesh.loops.foreach_get("vertex_index", vertex)
     return projected_light(solution, triangles[triangles >= 0], world_positions(mesh, matrix)[vertex],
-                           world_corner_normals(mesh, matrix), PROJECTION_REACH * solution.scene.size_m)
+                           world_corner_normals(mesh, matrix), PROJECTION_REACH * solution.scene.size_m, method,
+                           gather_samples_per_edge)
 
 
 def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER") -> None:

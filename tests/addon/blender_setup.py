@@ -191,3 +191,41 @@ def uv_coverage(objects, uv_map: str, width: int, height: int) -> np.ndarray:
         strictly = texels.centre_inside & (distance.min(axis=1) > EDGE_MARGIN_TEXELS)
         covered[texels.pixel[strictly]] = True
     return covered.reshape(height, width)
+
+
+def quad_room(diffuse: bool) -> list[str]:
+    """A 2 m room whose six walls are single quads (Blender planes: every vertex on a corner or an edge of the
+    room), a red and a green wall, a 0.6 m block on the floor and a 60 W lamp, in a new empty scene with a black
+    world; Blender's default Principled BSDF, or with ``diffuse`` its Specular IOR Level 0. Returns the names of
+    the objects."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.world = bpy.data.worlds.new("Black")
+    scene.world.color = (0.0, 0.0, 0.0)
+    if scene.world.node_tree is not None:
+        scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    walls = {"floor": ((0, 0, -1), (0, 0, 0)), "ceiling": ((0, 0, 1), (np.pi, 0, 0)),
+             "left": ((-1, 0, 0), (0, np.pi / 2, 0)), "right": ((1, 0, 0), (0, -np.pi / 2, 0)),
+             "back": ((0, 1, 0), (np.pi / 2, 0, 0)), "front": ((0, -1, 0), (-np.pi / 2, 0, 0))}
+    colours = {"left": (0.6, 0.1, 0.1), "right": (0.1, 0.6, 0.1)}
+    for name, (location, rotation) in walls.items():
+        bpy.ops.mesh.primitive_plane_add(size=2, location=location, rotation=rotation)
+        bpy.context.active_object.name = name
+        bpy.context.active_object.data.materials.append(_material(name, colours.get(name, (0.7, 0.7, 0.7)), diffuse))
+    bpy.ops.mesh.primitive_cube_add(size=0.6, location=(0.3, 0.2, -0.7), rotation=(0, 0, 0.4))
+    bpy.context.active_object.name = "block"
+    bpy.context.active_object.data.materials.append(_material("block", (0.7, 0.7, 0.7), diffuse))
+    add_light("POINT", (-0.3, -0.2, 0.7), 60.0)
+    return list(walls) + ["block"]
+
+
+def _material(name: str, colour, diffuse: bool):
+    import bpy
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    principled = material.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Base Color"].default_value = (*colour, 1.0)
+    if diffuse:
+        principled.inputs["Specular IOR Level"].default_value = 0.0
+    return material

@@ -1,0 +1,117 @@
+"""Light at mesh corners, for vertex colours: what Cycles' vertex bake evaluates at the vertex itself.
+
+Direct light is traced at each corner (core.solution.Solution.direct_light). Indirect light comes by one of two
+methods, or by "auto": the gather at corners where surfaces lie close by (a crease, a contact), interpolation
+elsewhere (open flat surfaces, where it is smooth and the gather would only add noise):
+- a final gather from the corner (core.gather.final_gather: s x s cosine-weighted stratified rays, seeded; where a
+  ray lands, the reflectance there x (its direct light + its indirect light); an escaping ray brings the sky).
+  The indirect light where a ray lands is the element's, except within NEAR_ELEMENTS element sizes of the corner,
+  where it is gathered again: in a concave corner (a room's, where walls of one quad each meet) most rays land
+  close by, and neither the elements around the corner nor the one under a close hit hold the light of that
+  spot. The gather measured closer to Cycles there (docs/benchmarks.md, "Vertex colours").
+- interpolation from the elements around the corner (core.solution.Solution.evaluate): fast and smooth.
+Corners that share a point, normals and material (the corners of one vertex on a flat or smooth-shaded surface)
+share their rays: each such point is evaluated once.
+
+A mesh whose modifiers changed its topology keeps its original corners, which lie on or near the rendered surface
+but on none of its triangles: ``projected_light`` casts two rays along each corner's normal line, one from
+``reach_m`` in front of it looking back and one from ``reach_m`` behind it looking forward, and takes the light at
+the hit nearer to the corner on the object's solved triangles. So a surface up to ``reach_m`` on either side is
+found even when the corner lies inside it; a corner whose normal line meets none of the triangles stays black.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import SettingsError
+from .gather import final_gather
+from .geometry import lengths, tangent_frames
+from .raycast import RayCaster
+from .sampling import cosine_hemisphere, stratified_square
+
+NORMAL_STEPS = 1e4  # normals are matched to 1e-4 per component when corners share a point
+NEAR_ELEMENTS = 2.0  # a corner's gather rays that land within this many element sizes gather again there
+NEAR_SAMPLES_PER_EDGE = 4  # rays per edge of that second gather
+PROBE_SAMPLES_PER_EDGE = 4  # rays per edge that tell whether surfaces lie close to a corner (method "auto")
+GATHER_NEAR_SHARE = 0.3  # "auto" gathers where at least this share of the probe rays lands close by
+VERTEX_METHODS = ("auto", "gather", "interpolate")
+
+
+def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, method: str,
+                 gather_samples_per_edge: int, seed: int = 0) -> np.ndarray:
+    """(m, 3) light (irradiance / pi, as outputs store it) at surface points given by scene triangle and
+    barycentrics: direct light traced there, indirect light by ``method``: "gather" (s^2 rays, s =
+    ``gather_samples_per_edge``), "interpolate", or "auto": the gather at corners where surfaces lie close by
+    (``near_share``), interpolation elsewhere. NaN on unsolved triangles."""
+    if method not in VERTEX_METHODS:
+        raise SettingsError(f"Vertex indirect light must be one of {', '.join(VERTEX_METHODS)}, got '{method}'.")
+    scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
+    barycentric = np.asarray(barycentric, dtype=np.float64)
+    if method == "interpolate":
+        return solution.evaluate(scene_triangle, barycentric, direct_per_point=True)
+    moved, points, normals = solution.sample_points(scene_triangle, barycentric)
+    shading = solution.scene.shading_normals(scene_triangle, moved)
+    surface = np.einsum("mc,mck->mk", moved, solution.scene.triangles[scene_triangle])  # before the inset
+    first, shared = _distinct(solution, scene_triangle, surface, normals, shading)
+    triangle, point, face, shade = scene_triangle[first], points[first], normals[first], shading[first]
+    gathered = np.ones(len(first), dtype=bool)
+    if method == "auto":
+        gathered = near_share(solution, point, face, seed) >= GATHER_NEAR_SHARE
+    light = np.zeros((len(first), 3))
+    near_m = NEAR_ELEMENTS * solution.element_size_m
+    here = np.flatnonzero(gathered)
+    light[here] = solution.output_light(solution.direct_light(
+        point[here], shade[here], triangle[here], moved[first][here], world=False) + final_gather(
+        solution, solution.caster, point[here][:, None, :], shade[here], gather_samples_per_edge,
+        solution.offset_m, seed, face_normals=face[here], near_m=near_m,
+        near_samples_per_edge=NEAR_SAMPLES_PER_EDGE), triangle[here])
+    rest = np.flatnonzero(~gathered)
+    light[rest] = solution.evaluate(triangle[rest], barycentric[first][rest], direct_per_point=True)
+    return light[shared]
+
+
+def near_share(solution, points: np.ndarray, normals: np.ndarray, seed: int) -> np.ndarray:
+    """(m,) share of PROBE_SAMPLES_PER_EDGE^2 cosine-weighted rays from each point that meet a surface within
+    NEAR_ELEMENTS element sizes: half or more in a concave crease (a wall's foot), none on open flat ground."""
+    rays = PROBE_SAMPLES_PER_EDGE ** 2
+    local = cosine_hemisphere(stratified_square(len(points), PROBE_SAMPLES_PER_EDGE, seed))
+    directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals)).reshape(-1, 3)
+    origins = np.repeat(points + solution.offset_m * normals, rays, axis=0)
+    distance = solution.caster.hit_distance(origins, directions)
+    return (distance < NEAR_ELEMENTS * solution.element_size_m).reshape(-1, rays).mean(axis=1)
+
+
+def _distinct(solution, scene_triangle, points, normals, shading) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the distinct (surface point, face normal, shading normal, material) among the corners, and for
+    every corner the position of its own among them; each is evaluated at the first corner's inset point."""
+    key = np.concatenate([np.round(points / solution.offset_m), np.round(normals * NORMAL_STEPS),
+                          np.round(shading * NORMAL_STEPS), solution.scene.material_index[scene_triangle][:, None]],
+                         axis=1).astype(np.int64)
+    _, first, shared = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return first, shared.ravel()
+
+
+def projected_light(solution, triangles: np.ndarray, points: np.ndarray, normals: np.ndarray, reach_m: float,
+                    method: str, gather_samples_per_edge: int) -> np.ndarray:
+    """(m, 3) light at (m, 3) world points with unit normals, taken (by ``corner_light``) where their normal lines
+    meet the given solved scene triangles nearest to them (rays from ``reach_m`` out on either side)."""
+    caster = RayCaster(solution.scene.triangles[triangles], threads=1)
+    best = np.full(len(points), np.inf)
+    hit_triangle = np.full(len(points), -1)
+    hit_bary = np.zeros((len(points), 3))
+    try:
+        for sign in (1.0, -1.0):
+            hit, bary = caster.first_hit(points + sign * reach_m * normals, -sign * normals)
+            found = np.flatnonzero(hit >= 0)
+            hit_points = np.einsum("mc,mck->mk", bary[found], solution.scene.triangles[triangles[hit[found]]])
+            distance = lengths(hit_points - points[found])
+            nearer = distance < best[found]
+            closer = found[nearer]
+            best[closer] = distance[nearer]
+            hit_triangle[closer], hit_bary[closer] = triangles[hit[closer]], bary[closer]
+    finally:
+        caster.close()
+    light = np.zeros((len(points), 3))
+    found = np.flatnonzero(hit_triangle >= 0)
+    light[found] = corner_light(solution, hit_triangle[found], hit_bary[found], method, gather_samples_per_edge)
+    return np.nan_to_num(light)

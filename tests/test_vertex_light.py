@@ -1,0 +1,72 @@
+"""Light at mesh corners (core.vertex_light) against closed forms (docs/references.md)."""
+import numpy as np
+import pytest
+
+from core import BakeSettings, Material, Scene, SunLight, bake
+from core.vertex_light import corner_light, projected_light
+from shapes import box_faces, quad
+
+STRENGTH = 3.0
+
+
+@pytest.mark.parametrize("method", ["interpolate", "gather", "auto"])
+def test_furnace_corners(method):
+    """Closed cube, every face emitting L = 1 with reflectance 0.5: the light is L / (1 - rho) = 2.0 everywhere,
+    also at the cube's concave corners, where three faces meet (within 2%: the gather's noise and the emitters'
+    sampling)."""
+    triangles = np.concatenate(box_faces((0, 0, 0), (1, 1, 1)))
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("glow", (0.5,) * 3, (1.0,) * 3)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.25))
+    light = corner_light(solution, np.repeat(np.arange(len(triangles)), 3), np.tile(np.eye(3), (len(triangles), 1)),
+                         method, 16)
+    assert light.mean(axis=0) == pytest.approx([2.0] * 3, rel=0.02)
+    assert np.abs(light - 2.0).max() < 0.1
+
+
+def test_corners_of_one_vertex_share_their_rays():
+    """The six triangle corners at a flat floor's centre vertex hold one value, and it equals the value of that
+    point evaluated alone (the rays are shared, not averaged)."""
+    floor = np.concatenate([quad((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)) + offset
+                            for offset in ([0, 0, 0], [-1, 0, 0], [0, -1, 0], [-1, -1, 0])])
+    walls = np.concatenate(box_faces((-1, -1, 0), (1, 1, 1))[:4] + [box_faces((-1, -1, 0), (1, 1, 1))[5]])
+    triangles = np.concatenate([floor, walls])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.3, 0.2, -1.0), strength_w_m2=STRENGTH)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    at_origin = np.flatnonzero(np.all(np.abs(floor) < 1e-12, axis=2))  # (triangle * 3 + corner) at (0, 0, 0)
+    barycentric = np.eye(3)[at_origin % 3]
+    light = corner_light(solution, at_origin // 3, barycentric, "gather", 16)
+    assert len(at_origin) >= 4 and np.ptp(light, axis=0).max() == 0.0
+    alone = corner_light(solution, at_origin[:1] // 3, barycentric[:1], "gather", 16)
+    assert light[0] == pytest.approx(alone[0], rel=1e-12)
+
+
+@pytest.mark.parametrize("method", ["interpolate", "gather"])
+def test_corners_above_and_below_the_floor_take_its_light_and_those_beside_it_stay_black(method):
+    """Corners off the solved surface (a mesh whose modifiers changed its topology) take the light of the nearest
+    surface point along their normal: a lone floor under a sun overhead of strength S holds S / pi everywhere
+    (irradiance / pi; nothing else in the scene, so no indirect light)."""
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    scene = Scene(floor, np.zeros(2, int), [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=STRENGTH)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    points = np.array([[0.2, 0.3, 0.01], [-0.5, 0.1, -0.02], [0.9, -0.9, 0.0], [3.0, 0.0, 0.0]])
+    normals = np.tile([0.0, 0.0, 1.0], (4, 1))
+    light = projected_light(solution, np.arange(2), points, normals, 0.1, method, 16)
+    assert light[:3] == pytest.approx(STRENGTH / np.pi, rel=1e-3)
+    assert light[3] == pytest.approx(0.0, abs=1e-12)  # its normal line misses the floor
+
+
+def test_near_share_is_half_at_a_walls_foot_and_none_on_open_ground():
+    """Cosine-weighted rays from a point at the foot of a wall: the wall's plane halves the hemisphere, so half of
+    them meet it at once (16 stratified rays: within 1/8); from the middle of a floor, far from the wall, none."""
+    from core.vertex_light import near_share
+    floor = quad((-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0))
+    wall = quad((2, -2, 0), (2, 2, 0), (2, 2, 2), (2, -2, 2))[:, ::-1]  # facing -x, into the room
+    triangles = np.concatenate([floor, wall])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.3, 0.2, -1.0), strength_w_m2=STRENGTH)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.25))
+    points = np.array([[2.0 - 1e-3, 0.3, 0.0], [-1.0, 0.0, 0.0]])
+    share = near_share(solution, points, np.tile([0.0, 0.0, 1.0], (2, 1)), seed=0)
+    assert share[0] == pytest.approx(0.5, abs=0.125) and share[1] == 0.0
