@@ -17,7 +17,9 @@ A mesh whose modifiers changed its topology keeps its original corners, which li
 but on none of its triangles: ``projected_light`` casts two rays along each corner's normal line, one from
 ``reach_m`` in front of it looking back and one from ``reach_m`` behind it looking forward, and takes the light at
 the hit nearer to the corner on the object's solved triangles. So a surface up to ``reach_m`` on either side is
-found even when the corner lies inside it; a corner whose normal line meets none of the triangles stays black.
+found even when the corner lies inside it. A surface turned like the corner's face is preferred, and a corner
+whose line meets none is tried again a little way into its face; it stays black only when none of those lines
+meets the surface.
 """
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ import numpy as np
 
 from .errors import SettingsError
 from .gather import final_gather
-from .geometry import lengths, tangent_frames
+from .geometry import lengths, tangent_frames, triangle_unit_normals
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
@@ -35,6 +37,8 @@ NEAR_SAMPLES_PER_EDGE = 4  # rays per edge of that second gather
 PROBE_SAMPLES_PER_EDGE = 4  # rays per edge that tell whether surfaces lie close to a corner (method "auto")
 GATHER_NEAR_SHARE = 0.3  # "auto" gathers where at least this share of the probe rays lands close by
 VERTEX_METHODS = ("auto", "gather", "interpolate")
+PROJECTION_INSET_STEPS = (0.0, 0.05, 0.15, 0.3, 0.5)  # of the way from a corner to its face's centroid
+FACING_ALIGNMENT = 0.9  # a surface turned within about 25 degrees of a corner's normal is taken first
 
 
 def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, method: str,
@@ -91,27 +95,53 @@ def _distinct(solution, scene_triangle, points, normals, shading) -> tuple[np.nd
     return first, shared.ravel()
 
 
-def projected_light(solution, triangles: np.ndarray, points: np.ndarray, normals: np.ndarray, reach_m: float,
-                    method: str, gather_samples_per_edge: int) -> np.ndarray:
-    """(m, 3) light at (m, 3) world points with unit normals, taken (by ``corner_light``) where their normal lines
-    meet the given solved scene triangles nearest to them (rays from ``reach_m`` out on either side)."""
+def projected_light(solution, triangles: np.ndarray, points: np.ndarray, normals: np.ndarray,
+                    face_centroids: np.ndarray, reach_m: float, method: str,
+                    gather_samples_per_edge: int) -> np.ndarray:
+    """(m, 3) light at (m, 3) world corner points with unit normals, taken (by ``corner_light``) where their
+    normal lines meet the given solved scene triangles nearest to them (rays from ``reach_m`` out on either
+    side), on a surface turned like the corner's face. A corner whose line meets none is moved along
+    PROJECTION_INSET_STEPS of the way towards its original face's centroid (``face_centroids``, (m, 3)) and tried
+    again: a Bevel cuts a cube's edges back, so the normal line through an original corner runs in the plane of a
+    neighbouring face, just outside it, or meets the chamfer at the corner. Corners that find no such surface take
+    the nearest surface their lines meet, however it is turned (a curved Subdivision surface)."""
     caster = RayCaster(solution.scene.triangles[triangles], threads=1)
-    best = np.full(len(points), np.inf)
     hit_triangle = np.full(len(points), -1)
     hit_bary = np.zeros((len(points), 3))
     try:
-        for sign in (1.0, -1.0):
-            hit, bary = caster.first_hit(points + sign * reach_m * normals, -sign * normals)
-            found = np.flatnonzero(hit >= 0)
-            hit_points = np.einsum("mc,mck->mk", bary[found], solution.scene.triangles[triangles[hit[found]]])
-            distance = lengths(hit_points - points[found])
-            nearer = distance < best[found]
-            closer = found[nearer]
-            best[closer] = distance[nearer]
-            hit_triangle[closer], hit_bary[closer] = triangles[hit[closer]], bary[closer]
+        for alignment in (FACING_ALIGNMENT, -1.0):  # a face turned like the corner's first, then any surface
+            for step in PROJECTION_INSET_STEPS:
+                missing = np.flatnonzero(hit_triangle < 0)
+                moved = points[missing] + step * (face_centroids[missing] - points[missing])
+                found, triangle, bary = _nearest_along_normal(solution, caster, triangles, moved,
+                                                              normals[missing], reach_m, alignment)
+                hit_triangle[missing[found]], hit_bary[missing[found]] = triangle, bary
     finally:
         caster.close()
     light = np.zeros((len(points), 3))
     found = np.flatnonzero(hit_triangle >= 0)
     light[found] = corner_light(solution, hit_triangle[found], hit_bary[found], method, gather_samples_per_edge)
     return np.nan_to_num(light)
+
+
+def _nearest_along_normal(solution, caster, triangles, points, normals, reach_m, alignment):
+    """For each point, the hit of its normal line on the triangles nearest to it (two rays, from ``reach_m`` out
+    on either side, looking back), on a triangle whose normal's dot with the point's is at least ``alignment``:
+    indices of the points that found one, their scene triangles and barycentrics."""
+    best = np.full(len(points), np.inf)
+    hit_triangle = np.full(len(points), -1)
+    hit_bary = np.zeros((len(points), 3))
+    for sign in (1.0, -1.0):
+        hit, bary = caster.first_hit(points + sign * reach_m * normals, -sign * normals)
+        found = np.flatnonzero(hit >= 0)
+        facing = np.einsum("mk,mk->m", triangle_unit_normals(solution.scene.triangles[triangles[hit[found]]]),
+                           normals[found])
+        found = found[facing >= alignment]
+        hit_points = np.einsum("mc,mck->mk", bary[found], solution.scene.triangles[triangles[hit[found]]])
+        distance = lengths(hit_points - points[found])
+        nearer = distance < best[found]
+        closer = found[nearer]
+        best[closer] = distance[nearer]
+        hit_triangle[closer], hit_bary[closer] = triangles[hit[closer]], bary[closer]
+    found = np.flatnonzero(hit_triangle >= 0)
+    return found, hit_triangle[found], hit_bary[found]

@@ -79,13 +79,21 @@ def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj, method: st
 
 def _projected_light(item, solution, triangles, obj, method: str, gather_samples_per_edge: int) -> np.ndarray:
     """Light for meshes whose modifiers changed the topology: each original corner takes the light of the nearest
-    point of the object's baked surface along its normal (core.vertex_light.projected_light)."""
+    point of the object's baked surface along its normal, or a little way into its face where that line misses
+    (core.vertex_light.projected_light)."""
     mesh, matrix = obj.data, np.array(obj.matrix_world)
     vertex = np.empty(len(mesh.loops), dtype=np.int32)
     mesh.loops.foreach_get("vertex_index", vertex)
+    centres, start, total = (np.empty(len(mesh.polygons) * width, dtype=kind) for width, kind in
+                             ((3, np.float32), (1, np.int64), (1, np.int64)))
+    for name, values in (("center", centres), ("loop_start", start), ("loop_total", total)):
+        mesh.polygons.foreach_get(name, values)
+    order = np.argsort(start)  # a polygon's loops are contiguous from its loop_start
+    polygon_of_loop = np.repeat(order, total[order])
+    centres = centres.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
     return projected_light(solution, triangles[triangles >= 0], world_positions(mesh, matrix)[vertex],
-                           world_corner_normals(mesh, matrix), PROJECTION_REACH * solution.scene.size_m, method,
-                           gather_samples_per_edge)
+                           world_corner_normals(mesh, matrix), centres[polygon_of_loop],
+                           PROJECTION_REACH * solution.scene.size_m, method, gather_samples_per_edge)
 
 
 def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER") -> None:

@@ -52,9 +52,23 @@ def test_corners_above_and_below_the_floor_take_its_light_and_those_beside_it_st
     solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
     points = np.array([[0.2, 0.3, 0.01], [-0.5, 0.1, -0.02], [0.9, -0.9, 0.0], [3.0, 0.0, 0.0]])
     normals = np.tile([0.0, 0.0, 1.0], (4, 1))
-    light = projected_light(solution, np.arange(2), points, normals, 0.1, method, 16)
+    light = projected_light(solution, np.arange(2), points, normals, points, 0.1, method, 16)
     assert light[:3] == pytest.approx(STRENGTH / np.pi, rel=1e-3)
     assert light[3] == pytest.approx(0.0, abs=1e-12)  # its normal line misses the floor
+
+
+def test_a_corner_beside_a_cut_back_edge_is_moved_into_its_face():
+    """A corner 1 cm beyond the floor's edge (as a Bevel cuts a cube's edge back) whose normal line misses the
+    floor is tried a little way towards its face's centroid, and takes the floor's light, S / pi."""
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    scene = Scene(floor, np.zeros(2, int), [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=STRENGTH)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    corner, centroid = np.array([[1.01, 1.01, 0.0]]), np.array([[0.0, 0.0, 0.0]])
+    up = np.array([[0.0, 0.0, 1.0]])
+    assert projected_light(solution, np.arange(2), corner, up, corner, 0.1, "interpolate", 16)[0, 0] == 0.0
+    light = projected_light(solution, np.arange(2), corner, up, centroid, 0.1, "interpolate", 16)
+    assert light[0] == pytest.approx(STRENGTH / np.pi, rel=1e-3)
 
 
 def test_near_share_is_half_at_a_walls_foot_and_none_on_open_ground():

@@ -89,3 +89,20 @@ def test_vertex_domain_holds_the_mean_of_each_vertex_corners(empty_scene):
     rgba = np.empty(8 * 4, dtype=np.float32)
     attribute.data.foreach_get("color", rgba)
     assert rgba.reshape(8, 4)[:, 0] == pytest.approx(expected, rel=0.005, abs=1e-6)
+
+
+def test_a_bevelled_cubes_corners_take_the_light_of_its_faces(empty_scene):
+    """A Bevel modifier cuts a cube's edges back, so the normal line through an original corner runs just outside
+    the rendered surface: those corners used to bake black. Under a sun overhead of strength 3, the top face's
+    corners hold 3 / pi (within 1%) and the side faces' none."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 0.0))
+    cube = bpy.context.active_object
+    cube.modifiers.new("Bevel", "BEVEL").width = 0.05
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0)
+    empty_scene.radiosity.quality = "DRAFT"
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    _, normals, _ = _corner_positions_and_normals(cube)
+    light = corner_colors(cube.data, "Radiosity")[:, 0]
+    top, sides = normals[:, 2] > 0.9, np.abs(normals[:, 2]) < 0.1
+    assert top.sum() == 4 and light[top] == pytest.approx(3.0 / np.pi, rel=0.01)
+    assert np.abs(light[sides]).max() < 0.01
