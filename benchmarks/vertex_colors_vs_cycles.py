@@ -26,7 +26,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "addon"))
-from blender_setup import converged_cycles, corner_colors, load_extension, make_sample, quad_room  # noqa: E402
+from blender_setup import corner_colors, cycles_vertex_bake, load_extension, make_sample, quad_room  # noqa: E402
 
 METHODS = ("auto", "gather", "interpolate")
 
@@ -43,21 +43,6 @@ def compared_corners(scene_name: str, objects) -> np.ndarray:
     from test_cornell_vs_cycles import under_the_blocks
     return np.concatenate([~under_the_blocks(obj) if scene_name == "cornell_box" and obj.name == "floor"
                            else np.ones(len(obj.data.loops), dtype=bool) for obj in objects])
-
-
-def cycles_bake(objects, samples: int, seed: int, name: str) -> np.ndarray:
-    import bpy
-    scene = bpy.context.scene
-    converged_cycles(scene, samples, seed)
-    for obj in scene.objects:
-        obj.select_set(False)
-    for obj in objects:
-        attribute = obj.data.color_attributes.new(name, "FLOAT_COLOR", "CORNER")
-        obj.data.color_attributes.active_color = attribute
-        obj.select_set(True)
-    bpy.context.view_layer.objects.active = objects[0]
-    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT", "INDIRECT"}, target="VERTEX_COLORS")
-    return np.concatenate([corner_colors(obj.data, name) for obj in objects])
 
 
 def main() -> None:
@@ -87,7 +72,10 @@ def main() -> None:
             objects = [bpy.data.objects[name] for name in names]
             ours[method] = (np.concatenate([corner_colors(o.data, f"Ours {method}") for o in objects]), seconds)
         objects = [bpy.data.objects[name] for name in names]
-        first, second = (cycles_bake(objects, args.samples, seed, f"Cycles {seed}") for seed in (1, 2))
+        for seed in (1, 2):
+            cycles_vertex_bake(objects, args.samples, f"Cycles {seed}", seed)
+        first, second = (np.concatenate([corner_colors(obj.data, f"Cycles {seed}") for obj in objects])
+                         for seed in (1, 2))
         keep = compared_corners(scene_name, objects)
         reference, noise = (first + second)[keep] / 2, np.mean((first - second)[keep] ** 2) / 4
         for method in METHODS:

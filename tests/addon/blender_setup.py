@@ -74,11 +74,11 @@ def converged_cycles(scene, samples: int, seed: int = 1) -> None:
     scene.cycles.sample_clamp_direct = scene.cycles.sample_clamp_indirect = 0.0
 
 
-def cycles_vertex_bake(objects, samples: int, name: str = "Cycles") -> None:
+def cycles_vertex_bake(objects, samples: int, name: str = "Cycles", seed: int = 1) -> None:
     """Cycles' Diffuse bake (Direct + Indirect, no Color) into a new FLOAT_COLOR corner attribute of each object."""
     import bpy
     scene = bpy.context.scene
-    converged_cycles(scene, samples)
+    converged_cycles(scene, samples, seed)
     for obj in scene.objects:
         obj.select_set(False)
     for obj in objects:

@@ -10,26 +10,17 @@ shows most (docs/benchmarks.md). Interpolation from the elements instead of the 
 import bpy
 import numpy as np
 
-from blender_setup import converged_cycles, corner_colors, quad_room
+from blender_setup import corner_colors, cycles_vertex_bake, quad_room
 
 
 def test_corners_of_a_room_of_single_quads_match_cycles(extension):
     names = quad_room(diffuse=True)
-    scene = bpy.context.scene
-    scene.radiosity.quality = "MEDIUM"
+    bpy.context.scene.radiosity.quality = "MEDIUM"
     assert bpy.ops.radiosity.bake() == {"FINISHED"}
     objects = [bpy.data.objects[name] for name in names]
     bakes = []
     for seed in (1, 2):
-        converged_cycles(scene, 1024, seed)
-        for obj in scene.objects:
-            obj.select_set(False)
-        for obj in objects:
-            attribute = obj.data.color_attributes.new(f"Cycles {seed}", "FLOAT_COLOR", "CORNER")
-            obj.data.color_attributes.active_color = attribute
-            obj.select_set(True)
-        bpy.context.view_layer.objects.active = objects[0]
-        bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT", "INDIRECT"}, target="VERTEX_COLORS")
+        cycles_vertex_bake(objects, 1024, f"Cycles {seed}", seed)
         bakes.append(np.concatenate([corner_colors(obj.data, f"Cycles {seed}") for obj in objects]))
     ours = np.concatenate([corner_colors(obj.data, "Radiosity") for obj in objects])
     reference, noise = (bakes[0] + bakes[1]) / 2, np.mean((bakes[0] - bakes[1]) ** 2) / 4
