@@ -115,6 +115,11 @@ class Solution:
         """
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         barycentric, points, normals = self.sample_points(scene_triangle, barycentric)
+        return self.light_at(scene_triangle, barycentric, points, normals, direct_per_point)
+
+    def light_at(self, scene_triangle: np.ndarray, barycentric: np.ndarray, points: np.ndarray, normals: np.ndarray,
+                 direct_per_point: bool = False) -> np.ndarray:
+        """``evaluate`` at points ``sample_points`` already placed (its barycentrics, points and face normals)."""
         if not direct_per_point:
             light = self._interpolate(self._total_light(), points, normals, scene_triangle, barycentric)
         else:

@@ -70,7 +70,7 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
         solution.offset_m, seed, face_normals=face[here], near_m=near_m,
         near_samples_per_edge=NEAR_SAMPLES_PER_EDGE), triangle[here])
     rest = np.flatnonzero(~gathered)
-    light[rest] = solution.evaluate(triangle[rest], barycentric[first][rest], direct_per_point=True)
+    light[rest] = solution.light_at(triangle[rest], moved[first][rest], point[rest], face[rest], direct_per_point=True)
     return light[shared]
 
 
