@@ -107,7 +107,7 @@ class Transfer:
 
 @dataclass
 class LinkSources:
-    """What links point at: the tree, the elements' polygons, and (n x 2 x SAMPLES, 3) the shadow rays' targets:
+    """What links point at: the tree, the elements' polygons, and (n x 2 x SAMPLES, 3) float32 the shadow rays' targets:
     each element sample lifted ``offset_m`` off its face on each side, in the tree's flat sample order
     ((element x 2 + side) x SAMPLES + k)."""
 
@@ -119,7 +119,7 @@ class LinkSources:
     def of(cls, tree: ClusterTree, clusters: FaceClusters, offset_m: float) -> "LinkSources":
         lift = offset_m * np.array([1.0, -1.0])[None, :, None, None] * clusters.sample_normal[:, None]
         side_point = clusters.sample_point[:, None] + lift                              # (n, 2, SAMPLES, 3)
-        return cls(tree, clusters.polygon, side_point.reshape(-1, 3))
+        return cls(tree, clusters.polygon, side_point.reshape(-1, 3).astype(np.float32))
 
 
 def build_links(sources: LinkSources, points: np.ndarray, normals: np.ndarray, own_element: np.ndarray,
@@ -323,45 +323,42 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
     each seen or not by one shadow ray; (q,) the factor to all of them, seen or not; and (q,) whether some were
     seen and some not. A square of area a whose
     a / (pi r^2) is below ``NEAR_SHARE`` takes the point kernel a cos cos / (pi r^2) (within 2% of Lambert's
-    exact factor to it); nearer ones take the exact factor."""
+    exact factor to it); nearer ones take the exact factor. The geometry is float32, as the tree's parts are:
+    these arrays are the largest of the solve."""
     tree = sources.tree
     pair, direction = np.nonzero(tree.class_exposed[node] > 0)          # only the classes a node has
-    flat = tree.sample[node[pair], direction]                           # (m, K): (element x 2 + side) x S + k
-    target = tree.centroid[node[pair], direction].astype(np.float64)   # (m, K, 3): each part's centroid
-    target_normal = tree.normal[node[pair], direction].astype(np.float64)
-    area = np.broadcast_to((tree.class_exposed[node[pair], direction] / NODE_SAMPLES)[:, None], flat.shape)
-    delta = target - points[pair, None, :]
-    distance2 = np.maximum(np.einsum("mki,mki->mk", delta, delta), 1e-300)
-    distance = np.sqrt(distance2)
-    cos_receiver = np.einsum("mki,mi->mk", delta, normals[pair]) / distance
-    cos_source = -np.einsum("mki,mki->mk", delta, target_normal) / distance
-    facing = np.flatnonzero(((cos_receiver > 0) & (cos_source > 0)).ravel())
-    weight = np.zeros(flat.size)
-    near = area.ravel()[facing] > NEAR_SHARE * np.pi * distance2.ravel()[facing]
-    far = facing[~near]
-    weight[far] = (area.ravel() * cos_receiver.ravel() * cos_source.ravel() / (np.pi * distance2.ravel()))[far]
-    close = facing[near]
+    part = (node[pair], direction)
+    flat = tree.sample[part].ravel()                                    # (m K): (element x 2 + side) x S + k
+    per_part = tree.sample.shape[-1]
+    target, target_normal = tree.centroid[part], tree.normal[part]      # (m, K, 3): each part's centroid, normal
+    area = tree.class_exposed[part] / NODE_SAMPLES                      # (m,)
+    delta = target - points.astype(np.float32)[pair, None, :]
+    distance2 = np.einsum("mki,mki->mk", delta, delta).ravel()
+    receiver_side = np.einsum("mki,mi->mk", delta, normals.astype(np.float32)[pair]).ravel()   # r cos(receiver)
+    source_side = -np.einsum("mki,mki->mk", delta, target_normal).ravel()                      # r cos(source)
+    facing = np.flatnonzero((receiver_side > 0) & (source_side > 0))
+    weight = np.zeros(len(flat))
+    square_area = area[facing // per_part].astype(np.float64)
+    facing_distance2 = distance2[facing].astype(np.float64)
+    weight[facing] = square_area * receiver_side[facing] * source_side[facing] / (np.pi * facing_distance2 ** 2)
+    close = facing[square_area > NEAR_SHARE * np.pi * facing_distance2]
     if len(close):
-        square = sample_squares(target.reshape(-1, 3)[close], target_normal.reshape(-1, 3)[close],
-                                area.ravel()[close])
-        receiver = pair[close // flat.shape[1]]
+        square = sample_squares(target.reshape(-1, 3)[close].astype(np.float64),
+                                target_normal.reshape(-1, 3)[close].astype(np.float64), area[close // per_part])
+        receiver = pair[close // per_part]
         weight[close] = point_to_polygon(points[receiver], normals[receiver], square)
-    pair_weight = weight.reshape(flat.shape) @ np.ones(flat.shape[1])
-    unoccluded = np.bincount(pair, weights=pair_weight, minlength=len(node))
-    if len(facing):
-        owner = pair[facing // flat.shape[1]]
-        origin = (points + offset_m * normals)[owner]
-        if lift is not None:
-            ray = delta.reshape(-1, 3)[facing]
-            origin = lift[owner].origins(origin[:, None, :], (ray / lengths(ray)[:, None])[:, None, :])[:, 0]
-        ray = sources.side_point[flat.ravel()[facing]] - origin
-        length = np.maximum(lengths(ray), 1e-300)
-        blocked = caster.occluded(origin, ray / length[:, None], length)
-        weight[facing[blocked]] = 0.0
-        pair_weight = weight.reshape(flat.shape) @ np.ones(flat.shape[1])
-        hidden = np.bincount(owner, weights=blocked, minlength=len(node))
-        partial = (hidden > 0) & (hidden < np.bincount(owner, minlength=len(node)))
-    else:
-        partial = np.zeros(len(node), dtype=bool)
-    factor = np.bincount(pair * 6 + direction, weights=pair_weight, minlength=6 * len(node)).reshape(-1, 6)
+    owner = pair[facing // per_part]
+    unoccluded = np.bincount(owner, weights=weight[facing], minlength=len(node))
+    origin = (points + offset_m * normals).astype(np.float32)[owner]
+    if lift is not None:
+        ray = delta.reshape(-1, 3)[facing]
+        origin = lift[owner].origins(origin[:, None, :], (ray / lengths(ray)[:, None])[:, None, :])[:, 0]
+    ray = sources.side_point[flat[facing]] - origin
+    length = lengths(ray)
+    blocked = caster.occluded(origin, ray / np.maximum(length, 1e-30)[:, None], length)
+    seen = facing[~blocked]
+    factor = np.bincount(pair[seen // per_part] * 6 + direction[seen // per_part], weights=weight[seen],
+                         minlength=6 * len(node)).reshape(-1, 6)
+    hidden = np.bincount(owner, weights=blocked, minlength=len(node))
+    partial = (hidden > 0) & (hidden < np.bincount(owner, minlength=len(node)))
     return factor, unoccluded, partial
