@@ -15,6 +15,7 @@ as few shadow rays as one element.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -55,10 +56,22 @@ class ClusterTree:
     def node_count(self) -> int:
         return len(self.start)
 
+    @cached_property
+    def inner_levels(self) -> list[np.ndarray]:
+        """The inner nodes of each depth, deepest first: what a pass from the leaves up takes, one step per level."""
+        depths = range(int(self.depth.max(initial=0)) - 1, -1, -1)
+        return [np.flatnonzero((self.depth == depth) & (self.left >= 0)) for depth in depths]
+
     def node_sums(self, values: np.ndarray) -> np.ndarray:
-        """(N, ...) sums over each node's elements of per-element ``values`` (n, ...)."""
-        cumulative = np.concatenate([np.zeros((1,) + values.shape[1:]), np.cumsum(values[self.order], axis=0)])
-        return cumulative[self.end] - cumulative[self.start]
+        """(N, ...) sums over each node's elements of per-element ``values`` (n, ...), leaves up. (Differences of
+        a running sum leave a sliver's node the round-off of everything summed before it: a mean over it, this
+        sum over its area, then comes out of any size.)"""
+        sums = np.zeros((self.node_count,) + values.shape[1:])
+        leaves = np.flatnonzero(self.left < 0)
+        sums[leaves] = values[self.element[leaves]]
+        for inner in self.inner_levels:
+            sums[inner] = sums[self.left[inner]] + sums[self.right[inner]]
+        return sums
 
     def class_range(self, side_values: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(N, 6) smallest and largest per-element-side value (n, 2) of every node's live sides in each direction
@@ -70,8 +83,7 @@ class ClusterTree:
             live = np.flatnonzero(alive[:, side])
             low[leaves[live], self.side_class[live, side]] = side_values[live, side]
             high[leaves[live], self.side_class[live, side]] = side_values[live, side]
-        for depth in range(int(self.depth.max(initial=0)) - 1, -1, -1):
-            inner = np.flatnonzero((self.depth == depth) & (self.left >= 0))
+        for inner in self.inner_levels:
             low[inner] = np.minimum(low[self.left[inner]], low[self.right[inner]])
             high[inner] = np.maximum(high[self.left[inner]], high[self.right[inner]])
         return low, high

@@ -4,9 +4,12 @@ import pytest
 
 from core import BakeSettings, Material, PointLight, Scene, World, bake
 from core.bake import ROUGH_RESIDUAL
+from core.cluster_tree import build_tree
+from core.clusters import SAMPLES
 from core.mesh import Elements, build_mesh, elements_of
 from core.raycast import RayCaster
 from core.formfactor_rows import Patches, RayCastRows
+from core.hierarchical import node_radiosity
 from core.solver import FormFactorCache, RadiosityState, patch_mean, solve_direct
 from shapes import box_faces, quad, uv_sphere
 
@@ -266,3 +269,22 @@ def test_a_face_duplicated_three_times_under_the_sky_gets_the_sky(solver):
                   world=World((0.0, 0.0, 1.0)))
     solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=1.0, solver=solver))
     assert solution.element_irradiance()[:, 2] == pytest.approx(np.pi, rel=0.01)
+
+
+def test_cluster_means_of_a_uniform_radiosity_are_that_radiosity_next_to_a_sliver():
+    """The mean radiosity of a cluster's surfaces (core.hierarchical.node_radiosity) is a mean: where every
+    surface has radiosity 1, so has every cluster, even one holding only a 1e-12 m^2 sliver beside elements of
+    1e6 m^2 (sums by differences of a running sum gave that cluster the round-off of the large ones: a mean of
+    any size, and a white scene's solve diverged)."""
+    count = 8
+    centroid = np.column_stack([np.arange(count, dtype=float), np.zeros(count), np.zeros(count)])
+    area = np.where(np.arange(count) % 2 == 0, 1e6, 1e-12)
+    exposed = np.repeat(area[:, None, None] / SAMPLES, 2, axis=1).repeat(SAMPLES, axis=2)
+    sample_point = np.repeat(centroid[:, None], SAMPLES, axis=1)
+    normal = np.tile([0.0, 0.0, 1.0], (count, 1))
+    tree = build_tree(centroid, centroid - 0.1, centroid + 0.1, normal, exposed, sample_point,
+                      np.repeat(normal[:, None], SAMPLES, axis=1))
+    means = node_radiosity(tree, np.ones((count, 2, 3)), exposed.sum(axis=2))
+    present = tree.class_exposed > 0
+    assert present.sum() == 2 * tree.node_count
+    assert means[present] == pytest.approx(1.0, rel=1e-12)
