@@ -22,10 +22,9 @@ from .scene import Scene
 from .solver import ConvergenceStep
 from .terminator import ShadowLift
 from .geometry import inset
-from .surface_probes import inside_closed_geometry
+from .surface_probes import inside_closed_geometry, nearest_uncovered
 
 FRONT = 0
-UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point to its triangle's centroid
 
 
 @dataclass
@@ -142,9 +141,9 @@ class Solution:
 
     def _uncovered(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
         """Barycentrics of the points, those inside closed geometry (a decimated floor's corner under a wall)
-        moved towards their triangle's centroid, to the first of ``UNCOVER_STEPS`` that is not: a vertex takes the
-        light of the nearest visible point of its own face, as a texel is pushed out of geometry, and stays dark
-        only when its whole face is hidden."""
+        moved to the nearest free point of their triangle (core.surface_probes.nearest_uncovered): a vertex takes
+        the light of the nearest visible point of its own face, as a texel is pushed out of geometry, and stays
+        dark only when its whole face is hidden."""
         triangles = self.scene.triangles[scene_triangle]
         normals = triangle_unit_normals(triangles)
         # Tested a hair inside the face (as the point is lit): a wall's corner on the floor lies in the floor's
@@ -153,14 +152,8 @@ class Solution:
         inside = np.flatnonzero(inside_closed_geometry(self.caster, self.scene.triangles, points, normals,
                                                        self.offset_m))
         out = barycentric.copy()
-        for step in UNCOVER_STEPS:
-            if len(inside) == 0:
-                break
-            moved = (1.0 - step) * barycentric[inside] + step / 3.0
-            points = np.einsum("mc,mck->mk", moved, triangles[inside])
-            still = inside_closed_geometry(self.caster, self.scene.triangles, points, normals[inside], self.offset_m)
-            out[inside[~still]] = moved[~still]
-            inside = inside[still]
+        out[inside] = nearest_uncovered(self.caster, self.scene.triangles, triangles[inside], barycentric[inside],
+                                        self.offset_m)
         return out
 
     def output_light(self, light: np.ndarray, scene_triangle: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import lengths, tangent_frames, triangle_unit_normals
+from .geometry import inset, lengths, tangent_frames, triangle_unit_normals
 from .raycast import RayCaster
 
 CANDIDATES_PER_CHUNK = 4_000_000
@@ -18,6 +18,8 @@ TANGENT_RAYS = 8
 INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
+UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point towards a target on its triangle
+UNCOVER_BISECTIONS = 6  # then halvings of the last step: the free point found lies within 1/256 of the way
 
 
 def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,
@@ -140,3 +142,45 @@ def back_face_hits(caster: RayCaster, scene_triangles_m: np.ndarray, origins: np
     distance = np.where(found, lengths(hit_points - origins), np.inf)
     facing = np.einsum("mk,mk->m", triangle_unit_normals(hit_triangles), directions)
     return distance, found & (facing > 0)
+
+
+def nearest_uncovered(caster: RayCaster, scene_triangles_m: np.ndarray, triangles_m: np.ndarray,
+                      barycentric: np.ndarray, offset_m: float) -> np.ndarray:
+    """(m, 3) barycentrics on each of the (m, 3, 3) triangles of the nearest point found that is not inside
+    closed geometry, for (m, 3) points that are (a decimated floor's corner under a wall): along the lines from
+    each point to its triangle's corners, edge midpoints and centroid, the first of ``UNCOVER_STEPS`` that is
+    free, then ``UNCOVER_BISECTIONS`` halvings towards where the line leaves the geometry; of those, the one
+    nearest the point. A corner under a wall's junction thus takes the light of the room's corner, not of a spot
+    a quarter of the floor away. Points are tested a hair inside their triangle, as ``Solution`` tests them.
+    Points with no free point on any line are returned unchanged."""
+    targets = np.vstack([np.eye(3), (1.0 - np.eye(3)) / 2.0, np.full(3, 1.0 / 3.0)])      # (K, 3) barycentrics
+    count, lines = len(barycentric), len(targets)
+    start = np.repeat(barycentric, lines, axis=0)
+    toward = np.tile(targets, (count, 1)) - start
+    triangle = np.repeat(np.arange(count), lines)
+    normals = triangle_unit_normals(triangles_m)[triangle]
+
+    def free(step: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        moved = start[rows] + step[:, None] * toward[rows]
+        corners = triangles_m[triangle[rows]]
+        points = inset(np.einsum("mc,mck->mk", moved, corners), corners.mean(axis=1), 4 * offset_m)
+        return ~inside_closed_geometry(caster, scene_triangles_m, points, normals[rows], offset_m)
+
+    buried, clear = np.zeros(len(start)), np.full(len(start), np.inf)
+    for step in UNCOVER_STEPS:
+        rows = np.flatnonzero(~np.isfinite(clear))
+        found = free(np.full(len(rows), step), rows)
+        clear[rows[found]], buried[rows[~found]] = step, step
+    rows = np.flatnonzero(np.isfinite(clear))
+    for _ in range(UNCOVER_BISECTIONS):
+        middle = 0.5 * (buried[rows] + clear[rows])
+        found = free(middle, rows)
+        clear[rows[found]], buried[rows[~found]] = middle[found], middle[~found]
+    length = lengths(np.einsum("mc,mck->mk", toward, triangles_m[triangle]))
+    distance = np.where(np.isfinite(clear), clear * length, np.inf).reshape(count, lines)
+    best = distance.argmin(axis=1)
+    out = barycentric.copy()
+    found = np.flatnonzero(np.isfinite(distance[np.arange(count), best]))
+    pick = found * lines + best[found]
+    out[found] = start[pick] + clear[pick, None] * toward[pick]
+    return out

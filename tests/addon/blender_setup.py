@@ -212,15 +212,46 @@ def quad_room(diffuse: bool) -> list[str]:
     for name, (location, rotation) in walls.items():
         bpy.ops.mesh.primitive_plane_add(size=2, location=location, rotation=rotation)
         bpy.context.active_object.name = name
-        bpy.context.active_object.data.materials.append(_material(name, colours.get(name, (0.7, 0.7, 0.7)), diffuse))
+        material = principled_material(name, colours.get(name, (0.7, 0.7, 0.7)), diffuse)
+        bpy.context.active_object.data.materials.append(material)
     bpy.ops.mesh.primitive_cube_add(size=0.6, location=(0.3, 0.2, -0.7), rotation=(0, 0, 0.4))
     bpy.context.active_object.name = "block"
-    bpy.context.active_object.data.materials.append(_material("block", (0.7, 0.7, 0.7), diffuse))
+    bpy.context.active_object.data.materials.append(principled_material("block", (0.7, 0.7, 0.7), diffuse))
     add_light("POINT", (-0.3, -0.2, 0.7), 60.0)
     return list(walls) + ["block"]
 
 
-def _material(name: str, colour, diffuse: bool):
+def thick_walled_room(floor_size: float) -> None:
+    """quad_room's 2 m room, its lamp and materials (diffuse), but with walls, ceiling and base as closed boxes
+    0.3 m thick, and a floor of one quad ``floor_size`` wide at z = -1: wider than 2 m, its corners lie inside the
+    walls (a decimated floor, as imported assets have)."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.world = bpy.data.worlds.new("Black")
+    scene.world.color = (0.0, 0.0, 0.0)
+    if scene.world.node_tree is not None:
+        scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    boxes = {"left": ((-1.3, -1.3, -1.3), (-1.0, 1.3, 1.3)), "right": ((1.0, -1.3, -1.3), (1.3, 1.3, 1.3)),
+             "back": ((-1.0, 1.0, -1.3), (1.0, 1.3, 1.3)), "front": ((-1.0, -1.3, -1.3), (1.0, -1.0, 1.3)),
+             "ceiling": ((-1.0, -1.0, 1.0), (1.0, 1.0, 1.3)), "base": ((-1.0, -1.0, -1.3), (1.0, 1.0, -1.05))}
+    colours = {"left": (0.6, 0.1, 0.1), "right": (0.1, 0.6, 0.1)}
+    for name, (low, high) in boxes.items():
+        low, high = np.array(low), np.array(high)
+        bpy.ops.mesh.primitive_cube_add(size=1.0, location=tuple((low + high) / 2), scale=tuple(high - low))
+        bpy.context.active_object.name = name
+        bpy.ops.object.transform_apply(scale=True)
+        material = principled_material(name, colours.get(name, (0.7, 0.7, 0.7)), True)
+        bpy.context.active_object.data.materials.append(material)
+    bpy.ops.mesh.primitive_plane_add(size=floor_size, location=(0, 0, -1))
+    bpy.context.active_object.name = "floor"
+    bpy.context.active_object.data.materials.append(principled_material("floor", (0.7, 0.7, 0.7), True))
+    add_light("POINT", (-0.3, -0.2, 0.7), 60.0)
+
+
+def principled_material(name: str, colour, diffuse: bool):
+    """A material of Blender's default Principled BSDF with the given base colour; with ``diffuse`` its Specular
+    IOR Level 0."""
     import bpy
     material = bpy.data.materials.new(name)
     material.use_nodes = True
