@@ -107,8 +107,8 @@ class Transfer:
 
 @dataclass
 class LinkSources:
-    """What links point at: the tree, the elements' polygons, and (n x 2 x SAMPLES, 3) float32 the shadow rays' targets:
-    each element sample lifted ``offset_m`` off its face on each side, in the tree's flat sample order
+    """What links point at: the tree, the elements' polygons, and the shadow rays' targets (n x 2 x SAMPLES, 3),
+    float32: each element sample lifted ``offset_m`` off its face on each side, in the tree's flat sample order
     ((element x 2 + side) x SAMPLES + k)."""
 
     tree: ClusterTree
@@ -338,7 +338,7 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
     source_side = -np.einsum("mki,mki->mk", delta, target_normal).ravel()                      # r cos(source)
     facing = np.flatnonzero((receiver_side > 0) & (source_side > 0))
     weight = np.zeros(len(flat))
-    square_area = area[facing // per_part].astype(np.float64)
+    square_area = area[facing // per_part]
     facing_distance2 = distance2[facing].astype(np.float64)
     weight[facing] = square_area * receiver_side[facing] * source_side[facing] / (np.pi * facing_distance2 ** 2)
     close = facing[square_area > NEAR_SHARE * np.pi * facing_distance2]
