@@ -76,6 +76,12 @@ def test_an_unwritable_report_leaves_no_new_blend(tmp_path, extension, report):
     assert sorted(path.name for path in tmp_path.iterdir()) == ["in.blend"]
 
 
+def _interrupts_as_in_a_terminal():
+    """A shell starts background jobs (a CI script run with &) with SIGINT ignored, and children inherit that;
+    Python then leaves it ignored. The bake under test gets the default, as a user's terminal gives it."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize("signal_number, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_an_interrupt_cancels_cleanly(tmp_path, extension, signal_number, code):
     """Interrupted while it solves the room sample: one line 'cancelled', the signal's exit code, no output."""
@@ -83,7 +89,8 @@ def test_an_interrupt_cancels_cleanly(tmp_path, extension, signal_number, code):
     source = make_sample("room", tmp_path)
     bake = subprocess.Popen([sys.executable, "-m", "radiosity_addon", "bake", str(source), "-o",
                              str(tmp_path / "out.blend"), "--report", str(tmp_path / "report.json"), "--target",
-                             "both", "--quality", "medium"], cwd=ROOT, stderr=subprocess.PIPE, text=True)
+                             "both", "--quality", "medium"], cwd=ROOT, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_interrupts_as_in_a_terminal)
     while True:  # until the solve has started (the first progress line after export)
         line = bake.stderr.readline()
         if not line or line.startswith("[radiosity]"):
