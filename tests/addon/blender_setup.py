@@ -193,11 +193,8 @@ def uv_coverage(objects, uv_map: str, width: int, height: int) -> np.ndarray:
     return covered.reshape(height, width)
 
 
-def quad_room(diffuse: bool) -> list[str]:
-    """A 2 m room whose six walls are single quads (Blender planes: every vertex on a corner or an edge of the
-    room), a red and a green wall, a 0.6 m block on the floor and a 60 W lamp, in a new empty scene with a black
-    world; Blender's default Principled BSDF, or with ``diffuse`` its Specular IOR Level 0. Returns the names of
-    the objects."""
+def empty_black_scene():
+    """Factory settings with an empty scene and a black world (Blender 5's worlds come with a grey Background)."""
     import bpy
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -205,6 +202,16 @@ def quad_room(diffuse: bool) -> list[str]:
     scene.world.color = (0.0, 0.0, 0.0)
     if scene.world.node_tree is not None:
         scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    return scene
+
+
+def quad_room(diffuse: bool) -> list[str]:
+    """A 2 m room whose six walls are single quads (Blender planes: every vertex on a corner or an edge of the
+    room), a red and a green wall, a 0.6 m block on the floor and a 60 W lamp, in a new empty scene with a black
+    world; Blender's default Principled BSDF, or with ``diffuse`` its Specular IOR Level 0. Returns the names of
+    the objects."""
+    import bpy
+    empty_black_scene()
     walls = {"floor": ((0, 0, -1), (0, 0, 0)), "ceiling": ((0, 0, 1), (np.pi, 0, 0)),
              "left": ((-1, 0, 0), (0, np.pi / 2, 0)), "right": ((1, 0, 0), (0, -np.pi / 2, 0)),
              "back": ((0, 1, 0), (np.pi / 2, 0, 0)), "front": ((0, -1, 0), (-np.pi / 2, 0, 0))}
@@ -226,12 +233,7 @@ def thick_walled_room(floor_size: float) -> None:
     0.3 m thick, and a floor of one quad ``floor_size`` wide at z = -1: wider than 2 m, its corners lie inside the
     walls (a decimated floor, as imported assets have)."""
     import bpy
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.world = bpy.data.worlds.new("Black")
-    scene.world.color = (0.0, 0.0, 0.0)
-    if scene.world.node_tree is not None:
-        scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    empty_black_scene()
     boxes = {"left": ((-1.3, -1.3, -1.3), (-1.0, 1.3, 1.3)), "right": ((1.0, -1.3, -1.3), (1.3, 1.3, 1.3)),
              "back": ((-1.0, 1.0, -1.3), (1.0, 1.3, 1.3)), "front": ((-1.0, -1.3, -1.3), (1.0, -1.0, 1.3)),
              "ceiling": ((-1.0, -1.0, 1.0), (1.0, 1.0, 1.3)), "base": ((-1.0, -1.0, -1.3), (1.0, 1.0, -1.05))}

@@ -7,7 +7,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy", reason="the bpy module is installed by scripts/test.sh")
 
-from blender_setup import load_extension  # noqa: E402
+from blender_setup import empty_black_scene, load_extension  # noqa: E402
 
 
 @pytest.fixture(scope="session")
@@ -20,13 +20,7 @@ def extension():
 
 @pytest.fixture
 def empty_scene(extension):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.world = bpy.data.worlds.new("Black")
-    scene.world.color = (0.0, 0.0, 0.0)
-    if scene.world.node_tree is not None:  # Blender 5 worlds come with a grey Background node
-        scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    return scene
+    return empty_black_scene()
 
 
 _exit_status = {"code": 0}
