@@ -31,8 +31,11 @@ CHILDREN = np.array([
 ])
 
 
-def locate_uniform(k: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
-    """Index into ``uniform_subdivision(k)`` of the sub-triangle holding each point (vectorised over points)."""
+def locate_uniform(k: np.ndarray, barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Index into ``uniform_subdivision(k)`` of the sub-triangle holding each point (vectorised over points), and
+    the point's barycentrics within it. With U, V = k u, k v on the grid, cell (i, j) "up" has corners (i, j),
+    (i+1, j), (i, j+1), so the point is U - i, V - j along its edges; "down" has (i+1, j), (i+1, j+1), (i, j+1),
+    so it is U + V - i - j - 1 and i + 1 - U along them."""
     u, v = barycentric[:, 1] * k, barycentric[:, 2] * k
     i = np.clip(np.floor(u), 0, k - 1).astype(np.int64)
     j = np.clip(np.floor(v), 0, k - 1 - i).astype(np.int64)
@@ -40,7 +43,10 @@ def locate_uniform(k: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
     # Row-major order of (i, j) pairs with i + j <= k - 1 (up) or <= k - 2 (down), as in uniform_subdivision.
     up_index = i * k - i * (i - 1) // 2 + j
     down_index = k * (k + 1) // 2 + i * (k - 1) - i * (i - 1) // 2 + j
-    return np.where(is_down, down_index, up_index)
+    second = np.where(is_down, u + v - i - j - 1, u - i)
+    third = np.where(is_down, i + 1 - u, v - j)
+    local = np.clip(np.stack([1.0 - second - third, second, third], axis=1), 0.0, 1.0)
+    return np.where(is_down, down_index, up_index), local
 
 
 def _child_and_local(barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -119,9 +125,8 @@ class ElementMesh:
         triangle = np.asarray(triangle, dtype=np.int64)
         local = np.asarray(barycentric, dtype=np.float64)
         k = self.triangle_k[triangle]
-        cell = locate_uniform(k, local)
+        cell, local = locate_uniform(k, local)
         node = self.triangle_first_patch[triangle] + cell
-        local = _to_local(uniform_subdivision_batch(k, cell), local)
         while True:
             inner = self.node_children[node, 0] >= 0
             if not inner.any():
@@ -138,11 +143,6 @@ def uniform_subdivision_batch(k: np.ndarray, cell: np.ndarray) -> np.ndarray:
         rows = k == value
         out[rows] = uniform_subdivision(int(value))[cell[rows]]
     return out
-
-
-def _to_local(corners_bary: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
-    """Barycentrics of points relative to sub-triangles given by their barycentric corners."""
-    return np.clip(np.linalg.solve(np.swapaxes(corners_bary, 1, 2), barycentric[..., None])[..., 0], 0.0, 1.0)
 
 
 def build_mesh(scene: Scene, patch_size_m: float, element_size_m: float,

@@ -19,12 +19,14 @@ def test_uniform_subdivision_tiles_the_triangle(k):
 
 
 @pytest.mark.parametrize("k", [1, 2, 5])
-def test_locate_uniform_finds_the_cell_holding_each_point(k):
+def test_locate_uniform_finds_the_cell_holding_each_point_and_its_barycentrics(k):
     rng = np.random.default_rng(1)
     bary = rng.dirichlet((1, 1, 1), size=2000)
-    cells = uniform_subdivision(k)[locate_uniform(np.full(2000, k), bary)]
-    local = np.linalg.solve(np.swapaxes(cells, 1, 2), bary[..., None])[..., 0]
-    assert (local > -1e-9).all()
+    cell, local = locate_uniform(np.full(2000, k), bary)
+    cells = uniform_subdivision(k)[cell]
+    solved = np.linalg.solve(np.swapaxes(cells, 1, 2), bary[..., None])[..., 0]
+    assert (solved > -1e-9).all()
+    assert local == pytest.approx(solved, abs=1e-12)
 
 
 def one_quad_scene():
