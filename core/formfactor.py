@@ -100,6 +100,8 @@ def visible_fraction(caster: RayCaster, points: np.ndarray, normals: np.ndarray,
     delta = targets - origins
     distance = np.maximum(lengths(delta), _TINY)
     direction = delta / distance[..., None]
+    if targets.shape[1] == 1:  # one sample: its weight cancels
+        return 1.0 - caster.occluded(origins.reshape(-1, 3), direction.reshape(-1, 3), distance.ravel())
     cos_receiver = np.maximum(np.einsum("msk,mk->ms", direction, normals), 0.0)
     cos_source = np.abs(np.einsum("msk,mk->ms", direction, target_normals))
     weight = cos_receiver * cos_source / distance ** 2
