@@ -11,9 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import inset, lengths, tangent_frames, triangle_unit_normals
+from .ragged import concatenated_ranges
 from .raycast import RayCaster
 
 CANDIDATES_PER_CHUNK = 4_000_000
+POINTS_PER_CELL = 8  # inside_any_triangle's grid
+GRID_CELLS_PER_AXIS = 2048  # at most, so that a long thin row of points does not make a huge grid
 TANGENT_RAYS = 8
 INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
@@ -106,20 +109,64 @@ def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.nda
 
 def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
     """(p,) whether each point (near the triangles' plane) lies inside any of the (q, 3, 3) triangles whose plane
-    is at most ``behind_m`` behind it along its unit normal."""
+    is at most ``behind_m`` behind it along its unit normal (all points share one plane). Points are binned on a
+    grid in that plane, POINTS_PER_CELL to a cell on average, and each triangle is tested only against the points
+    of the cells its bounding box overlaps: the work follows the overlap, not points x triangles."""
     inside = np.zeros(len(points), dtype=bool)
-    step = max(1, CANDIDATES_PER_CHUNK // max(1, len(triangles)))
-    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
-    d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
-    det = np.where(np.abs(d11 * d22 - d12 * d12) > 1e-300, d11 * d22 - d12 * d12, np.inf)
-    for start in range(0, len(points), step):  # chunks of points x triangles
-        rel = points[start:start + step, None, :] - triangles[None, :, 0]
-        r1, r2 = (rel * e1).sum(-1), (rel * e2).sum(-1)
-        u, v = (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
-        height = np.einsum("pqk,pk->pq", rel, normals[start:start + step])  # > 0: the triangle is behind
-        inside[start:start + step] = ((u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) &
-                                      (height <= behind_m)).any(axis=1)
+    if len(points) == 0 or len(triangles) == 0:
+        return inside
+    axes = tangent_frames(normals[:1])[0, :2]
+    flat, corners = points @ axes.T, triangles @ axes.T
+    low, extent = flat.min(axis=0), np.ptp(flat, axis=0)
+    cell = max(np.sqrt(extent[0] * extent[1] * POINTS_PER_CELL / len(points)), extent.max() / GRID_CELLS_PER_AXIS,
+               1e-9)
+    shape = np.floor(extent / cell).astype(np.int64) + 1
+    point_cell = _grid_cell(flat, low, cell, shape)
+    order = np.argsort(point_cell, kind="stable")
+    cell_start = np.searchsorted(point_cell[order], np.arange(shape[0] * shape[1] + 1))
+    margin = 1e-9 * max(1.0, float(np.abs(flat).max()))
+    lower = np.floor((corners.min(axis=1) - margin - low) / cell).astype(np.int64)
+    upper = np.floor((corners.max(axis=1) + margin - low) / cell).astype(np.int64)
+    overlaps = np.flatnonzero((upper >= 0).all(axis=1) & (lower < shape).all(axis=1))
+    lower, upper = np.clip(lower[overlaps], 0, shape - 1), np.clip(upper[overlaps], 0, shape - 1)
+    span = upper - lower + 1
+    cells_per_triangle = span[:, 0] * span[:, 1]
+    ends = np.cumsum(cells_per_triangle)
+    first = 0
+    while first < len(overlaps):  # triangles a few at a time, so that their (point, triangle) pairs stay bounded
+        stop = max(first + 1, int(np.searchsorted(ends, (ends[first - 1] if first else 0) +
+                                                   CANDIDATES_PER_CHUNK // POINTS_PER_CELL, side="right")))
+        triangle = np.repeat(np.arange(first, stop), cells_per_triangle[first:stop])
+        within = concatenated_ranges(cells_per_triangle[first:stop])
+        ix = lower[triangle, 0] + within // span[triangle, 1]
+        iy = lower[triangle, 1] + within % span[triangle, 1]
+        grid = ix * shape[1] + iy
+        count = cell_start[grid + 1] - cell_start[grid]
+        point = order[np.repeat(cell_start[grid], count) + concatenated_ranges(count)]
+        pair_triangle = overlaps[np.repeat(triangle, count)]
+        inside[point[_inside_pairs(points[point], normals[point], triangles[pair_triangle], behind_m)]] = True
+        first = stop
     return inside
+
+
+def _grid_cell(flat: np.ndarray, low: np.ndarray, cell: float, shape: np.ndarray) -> np.ndarray:
+    """Flat index of the grid cell holding each (p, 2) point."""
+    index = np.clip(np.floor((flat - low) / cell).astype(np.int64), 0, shape - 1)
+    return index[:, 0] * shape[1] + index[:, 1]
+
+
+def _inside_pairs(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
+    """(n,) for (point, triangle) pairs: the point projects inside the triangle (barycentrics by the normal
+    equations of its edges), whose plane lies at most ``behind_m`` behind the point along its unit normal."""
+    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    d11, d12, d22 = (np.einsum("nk,nk->n", e1, e1), np.einsum("nk,nk->n", e1, e2), np.einsum("nk,nk->n", e2, e2))
+    det = d11 * d22 - d12 * d12
+    det = np.where(np.abs(det) > 1e-300, det, np.inf)
+    rel = points - triangles[:, 0]
+    r1, r2 = np.einsum("nk,nk->n", rel, e1), np.einsum("nk,nk->n", rel, e2)
+    u, v = (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
+    height = np.einsum("nk,nk->n", rel, normals)  # > 0: the triangle is behind
+    return (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (height <= behind_m)
 
 
 def tangent_rays(points: np.ndarray, normals: np.ndarray, offset_m: float) -> tuple[np.ndarray, np.ndarray]:

@@ -404,3 +404,30 @@ def test_corners_buried_under_walls_take_the_light_of_their_visible_face():
     solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
     corners = solution.evaluate(np.repeat([0, 1], 3), np.tile(np.eye(3), (2, 1)), direct_per_point=True)
     assert corners[:, 0] == pytest.approx(2.0 / np.pi * 1.1, rel=0.1)
+
+
+@pytest.mark.parametrize("layout", ["spread", "strip"])
+def test_the_contact_grid_finds_every_triangle_a_point_lies_in(layout):
+    """inside_any_triangle bins points on a grid and tests each triangle against the cells its box overlaps; it
+    must agree with testing every point against every triangle (the barycentric test of each pair), for tiny and
+    huge triangles mixed, points on a whole plane or a thin strip of it, and faces up to ``behind`` behind."""
+    from core.surface_probes import inside_any_triangle
+    rng = np.random.default_rng(7)
+    count = 3000
+    x = rng.uniform(-10, 10, count)
+    y = rng.uniform(-10, 10, count) if layout == "spread" else rng.uniform(2.0, 2.02, count)
+    points = np.column_stack([x, y, np.zeros(count)])
+    normals = np.tile([0.0, 0.0, 1.0], (count, 1))
+    centres = rng.uniform(-12, 12, (300, 2))
+    sizes = np.where(rng.random(300) < 0.1, 15.0, rng.uniform(0.01, 1.0, 300))
+    corners = centres[:, None, :] + sizes[:, None, None] * rng.normal(size=(300, 3, 2))
+    depth = rng.choice([0.0, -0.001, -0.01], 300)  # 1 mm behind the points counts, 1 cm behind does not
+    triangles = np.concatenate([corners, np.broadcast_to(depth[:, None, None], (300, 3, 1))], axis=2)
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    rel = points[:, None, :2] - corners[None, :, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    u = (rel[..., 0] * e2[:, 1] - rel[..., 1] * e2[:, 0]) / det
+    v = (e1[:, 0] * rel[..., 1] - e1[:, 1] * rel[..., 0]) / det
+    expected = ((u >= 0) & (v >= 0) & (u + v <= 1) & (-depth <= 0.002)).any(axis=1)
+    assert 0.05 < expected.mean() < 0.95
+    assert (inside_any_triangle(points, normals, triangles, 0.002) == expected).all()
