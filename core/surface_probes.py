@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import inset, lengths, tangent_frames, triangle_unit_normals
-from .ragged import concatenated_ranges
+from .ragged import budget_ranges, concatenated_ranges
 from .raycast import RayCaster
 
 CANDIDATES_PER_CHUNK = 4_000_000
@@ -131,21 +131,18 @@ def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.n
     lower, upper = np.clip(lower[overlaps], 0, shape - 1), np.clip(upper[overlaps], 0, shape - 1)
     span = upper - lower + 1
     cells_per_triangle = span[:, 0] * span[:, 1]
-    ends = np.cumsum(cells_per_triangle)
-    first = 0
-    while first < len(overlaps):  # triangles a few at a time, so that their (point, triangle) pairs stay bounded
-        stop = max(first + 1, int(np.searchsorted(ends, (ends[first - 1] if first else 0) +
-                                                   CANDIDATES_PER_CHUNK // POINTS_PER_CELL, side="right")))
+    # Triangles a few at a time, and their (point, triangle) pairs a bounded number at a time.
+    for first, stop in budget_ranges(cells_per_triangle, CANDIDATES_PER_CHUNK // POINTS_PER_CELL):
         triangle = np.repeat(np.arange(first, stop), cells_per_triangle[first:stop])
         within = concatenated_ranges(cells_per_triangle[first:stop])
-        ix = lower[triangle, 0] + within // span[triangle, 1]
-        iy = lower[triangle, 1] + within % span[triangle, 1]
-        grid = ix * shape[1] + iy
+        grid = (lower[triangle, 0] + within // span[triangle, 1]) * shape[1] + lower[triangle, 1] + \
+            within % span[triangle, 1]
         count = cell_start[grid + 1] - cell_start[grid]
-        point = order[np.repeat(cell_start[grid], count) + concatenated_ranges(count)]
-        pair_triangle = overlaps[np.repeat(triangle, count)]
-        inside[point[_inside_pairs(points[point], normals[point], triangles[pair_triangle], behind_m)]] = True
-        first = stop
+        for start, end in budget_ranges(count, CANDIDATES_PER_CHUNK):
+            point = order[np.repeat(cell_start[grid[start:end]], count[start:end]) +
+                          concatenated_ranges(count[start:end])]
+            pair_triangle = overlaps[np.repeat(triangle[start:end], count[start:end])]
+            inside[point[_inside_pairs(points[point], normals[point], triangles[pair_triangle], behind_m)]] = True
     return inside
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .geometry import inset, lengths, triangle_unit_normals
-from .ragged import concatenated_ranges
+from .ragged import budget_ranges, concatenated_ranges
 
 CONSERVATIVE_REACH_TEXELS = 0.5 * np.sqrt(2.0)
 CANDIDATES_PER_CHUNK = 4_000_000
@@ -44,7 +44,7 @@ def rasterize(corner_uv: np.ndarray, width: int, height: int) -> Texels:
     extent = np.maximum(upper - lower + 1, 0)
     counts = extent[:, 0] * extent[:, 1]
     parts = []
-    for start, stop in _chunks(counts, CANDIDATES_PER_CHUNK):
+    for start, stop in budget_ranges(counts, CANDIDATES_PER_CHUNK):
         parts.append(_candidates(corners, lower, extent, counts, start, stop, width))
     if not parts:
         empty = np.zeros(0, dtype=np.int64)
@@ -56,17 +56,6 @@ def rasterize(corner_uv: np.ndarray, width: int, height: int) -> Texels:
     first[1:] = pixel[order][1:] != pixel[order][:-1]
     keep = order[first]
     return Texels(pixel[keep], triangle[keep], bary[keep], distance[keep] == 0.0, width, height)
-
-
-def _chunks(counts: np.ndarray, budget: int):
-    """Triangle ranges whose candidate texels stay under ``budget`` (a huge triangle gets a range of its own)."""
-    ends = np.cumsum(counts)
-    start = 0
-    while start < len(counts):
-        base = ends[start - 1] if start else 0
-        stop = max(start + 1, int(np.searchsorted(ends, base + budget, side="right")))
-        yield start, stop
-        start = stop
 
 
 def _candidates(corners, lower, extent, counts, start, stop, width):

@@ -406,12 +406,15 @@ def test_corners_buried_under_walls_take_the_light_of_their_visible_face():
     assert corners[:, 0] == pytest.approx(2.0 / np.pi * 1.1, rel=0.1)
 
 
-@pytest.mark.parametrize("layout", ["spread", "strip"])
-def test_the_contact_grid_finds_every_triangle_a_point_lies_in(layout):
+@pytest.mark.parametrize("layout, budget", [("spread", 4_000_000), ("strip", 4_000_000), ("spread", 64)])
+def test_the_contact_grid_finds_every_triangle_a_point_lies_in(layout, budget, monkeypatch):
     """inside_any_triangle bins points on a grid and tests each triangle against the cells its box overlaps; it
     must agree with testing every point against every triangle (the barycentric test of each pair), for tiny and
-    huge triangles mixed, points on a whole plane or a thin strip of it, and faces up to ``behind`` behind."""
+    huge triangles mixed, points on a whole plane or a thin strip of it, and faces up to ``behind`` behind; also
+    when its pairs are taken a few (64) at a time."""
+    import core.surface_probes
     from core.surface_probes import inside_any_triangle
+    monkeypatch.setattr(core.surface_probes, "CANDIDATES_PER_CHUNK", budget)
     rng = np.random.default_rng(7)
     count = 3000
     x = rng.uniform(-10, 10, count)
