@@ -117,13 +117,7 @@ def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.n
         return inside
     axes = tangent_frames(normals[:1])[0, :2]
     flat, corners = points @ axes.T, triangles @ axes.T
-    low, extent = flat.min(axis=0), np.ptp(flat, axis=0)
-    cell = max(np.sqrt(extent[0] * extent[1] * POINTS_PER_CELL / len(points)), extent.max() / GRID_CELLS_PER_AXIS,
-               1e-9)
-    shape = np.floor(extent / cell).astype(np.int64) + 1
-    point_cell = _grid_cell(flat, low, cell, shape)
-    order = np.argsort(point_cell, kind="stable")
-    cell_start = np.searchsorted(point_cell[order], np.arange(shape[0] * shape[1] + 1))
+    low, cell, shape, order, cell_start = _bin_points(flat)
     margin = 1e-9 * max(1.0, float(np.abs(flat).max()))
     lower = np.floor((corners.min(axis=1) - margin - low) / cell).astype(np.int64)
     upper = np.floor((corners.max(axis=1) + margin - low) / cell).astype(np.int64)
@@ -146,10 +140,18 @@ def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.n
     return inside
 
 
-def _grid_cell(flat: np.ndarray, low: np.ndarray, cell: float, shape: np.ndarray) -> np.ndarray:
-    """Flat index of the grid cell holding each (p, 2) point."""
+def _bin_points(flat: np.ndarray) -> tuple:
+    """(p, 2) points binned on a grid of about POINTS_PER_CELL points a cell (at most GRID_CELLS_PER_AXIS cells
+    along its longer side): its corner, cell size and (rows, columns) shape, the points in cell order, and where
+    each cell's points start in that order ((cells + 1,), the last entry p)."""
+    low, extent = flat.min(axis=0), np.ptp(flat, axis=0)
+    cell = max(np.sqrt(extent[0] * extent[1] * POINTS_PER_CELL / len(flat)), extent.max() / GRID_CELLS_PER_AXIS,
+               1e-9)
+    shape = np.floor(extent / cell).astype(np.int64) + 1
     index = np.clip(np.floor((flat - low) / cell).astype(np.int64), 0, shape - 1)
-    return index[:, 0] * shape[1] + index[:, 1]
+    point_cell = index[:, 0] * shape[1] + index[:, 1]
+    order = np.argsort(point_cell, kind="stable")
+    return low, cell, shape, order, np.searchsorted(point_cell[order], np.arange(shape[0] * shape[1] + 1))
 
 
 def _inside_pairs(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
