@@ -146,13 +146,15 @@ def build_links(sources: LinkSources, points: np.ndarray, normals: np.ndarray, o
     return links
 
 
-def _links_part(sources, caster, points, normals, receiver, node, samples_per_edge, offset_m) -> tuple:
+def _links_part(sources, caster, points, normals, receiver, node, samples_per_edge, offset_m,
+                keep_hidden=True) -> tuple:
     """Columns of Links (receiver, node, factor, unoccluded, exact) for (receiver, node) pairs, in their storage
-    types: those with some factor, and those to clusters whose samples are all hidden but that are not out of
-    sight (refinement may still find a visible bright part in them)."""
+    types: those with some factor, and, where ``keep_hidden`` (a bool or one per pair), those to clusters whose
+    samples are all hidden but that are not out of sight (refinement may still find a visible bright part in
+    them)."""
     factor, unoccluded, partial = link_factors(sources, caster, points[receiver], normals[receiver], node,
                                                samples_per_edge, offset_m)
-    keep = (np.einsum("lc->l", factor) > 0) | ((unoccluded > 0) & (sources.tree.left[node] >= 0))
+    keep = (np.einsum("lc->l", factor) > 0) | ((unoccluded > 0) & (sources.tree.left[node] >= 0) & keep_hidden)
     return (receiver[keep].astype(np.int32), node[keep].astype(np.int32), factor[keep].astype(np.float32),
             unoccluded[keep].astype(np.float32), _exact(sources, node[keep]), partial[keep])
 
@@ -168,8 +170,11 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
     shadow rays tell its visible share only in steps, the unoccluded factor times the node's mean radiosity
     ``radiosity`` (N,) is its bound. Too large is over ``tolerance`` times the receiver's ``irradiance`` (R,). A
     link to a cluster holding a lamp's panel or a sunlit patch, or half hidden by a block, seen from nearby, thus
-    becomes links to its parts. Links left with no visible factor are dropped, and rows capped again. Receivers
-    are refined ``RECEIVERS_PER_STEP`` at a time, so the links being split stay few however many levels open."""
+    becomes links to its parts. A link whose shadow rays were all blocked is refined once: its children's parts
+    are new samples, twice as many rays looking for a visible bright part; children hidden as well are dropped
+    (descending further tests every element behind every wall: docs/benchmarks.md, History). Links left with no
+    visible factor are dropped, and rows capped again. Receivers are refined ``RECEIVERS_PER_STEP`` at a time,
+    so the links being split stay few however many levels open."""
     steps = [_refined(links.subset((links.receiver >= first) & (links.receiver < first + RECEIVERS_PER_STEP)),
                       sources, caster, points, normals, deviation, radiosity, irradiance, tolerance,
                       samples_per_edge, offset_m, cancelled)
@@ -197,8 +202,10 @@ def _refined(links, sources, caster, points, normals, deviation, radiosity, irra
             break
         receiver = np.repeat(pending.receiver[refine], 2)
         node = np.stack([tree.left[pending.node[refine]], tree.right[pending.node[refine]]], axis=1).ravel()
+        seen = np.repeat(np.einsum("lc->l", pending.factor[refine]) > 0, 2)
         parts = [_links_part(sources, caster, points, normals, receiver[start:start + PAIRS_PER_STEP],
-                             node[start:start + PAIRS_PER_STEP], samples_per_edge, offset_m)
+                             node[start:start + PAIRS_PER_STEP], samples_per_edge, offset_m,
+                             seen[start:start + PAIRS_PER_STEP])
                  for start in range(0, len(node), PAIRS_PER_STEP)]
         pending = Links(*(np.concatenate(column) for column in zip(*parts)), links.covered)
     return Links(*(np.concatenate(column) for column in zip(*[part.columns for part in settled])), links.covered)
