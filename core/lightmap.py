@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .denoise import denoise_gathered
 from .errors import BakeCancelled, SettingsError
 from .gather import final_gather, gather_pays
 from .progress import Progress, Timer, never_cancelled, no_progress
@@ -34,14 +35,15 @@ class LightmapSettings:
     per edge divided by k (rounded up): about the bake's shadow rays per texel, spread over its footprint, which on
     the sample scenes measured closer to Cycles than as many rays from the texel centre (docs/benchmarks.md).
     dilation_texels: how far values are grown into the empty texels around charts (the add-on: its padding). seed:
-    of the stratified gather directions. The default method is the gather, the reference; the add-on's presets
-    use "auto"."""
+    of the stratified gather directions. denoise: filter the gathered indirect light over the page by its noise
+    (core.denoise). The default method is the gather, the reference; the add-on's presets use "auto"."""
 
     indirect: str = "gather"
     gather_samples_per_edge: int = 8
     subtexel_samples_per_edge: int = 3
     dilation_texels: int = 4
     seed: int = 0
+    denoise: bool = True
 
     def __post_init__(self):
         if self.indirect not in INDIRECT_METHODS:
@@ -66,6 +68,26 @@ class Lightmap:
 
 
 @dataclass
+class TexelLight:
+    """The light of a page's texels (or of one chunk's), in parts, all (m, 3) irradiance / pi: direct (with the
+    world's light when it is not gathered), indirect, and the variance of the gathered indirect light's mean (0
+    where it is interpolated)."""
+
+    direct: np.ndarray
+    indirect: np.ndarray
+    indirect_variance: np.ndarray
+
+    @classmethod
+    def zeros(cls, texel_count: int) -> TexelLight:
+        return cls(*np.zeros((3, texel_count, 3)))
+
+    def put(self, texels: slice, part: TexelLight) -> None:
+        """Store a chunk's light at its texels."""
+        self.direct[texels], self.indirect[texels] = part.direct, part.indirect
+        self.indirect_variance[texels] = part.indirect_variance
+
+
+@dataclass
 class TexelPlan:
     """The texels of one lightmap page and where their light is sampled, split into chunks that are lit
     independently (``light_chunk``): with a saved solution (core.solution_file), each chunk can run as its own
@@ -73,7 +95,7 @@ class TexelPlan:
 
     pixel: (m,) flat index of each texel in the (height, width) page; tri, barycentric: its scene triangle and
     the barycentrics of its point; points, normals: (m, 3) the point (pushed out of closed geometry where it was
-    inside) and its face's unit normal; sub_points, sub_bary: (m, q, 3) points over its footprint; moved, contact:
+    inside) and its face's unit normal; texel_m: (m,) a texel's edge length on its triangle; sub_points, sub_bary: (m, q, 3) points over its footprint; moved, contact:
     (m,) pushed out / resting on another face; settings: with the indirect method chosen; texels_per_chunk: the
     chunks' size (the rays of a chunk are seeded from its first texel)."""
 
@@ -84,6 +106,7 @@ class TexelPlan:
     barycentric: np.ndarray
     points: np.ndarray
     normals: np.ndarray
+    texel_m: np.ndarray
     sub_points: np.ndarray
     sub_bary: np.ndarray
     moved: np.ndarray
@@ -116,12 +139,12 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     timer = Timer()
     plan = plan_texels(solution, scene_triangle, corner_uv, width, height, settings)
     timer.lap("texels")
-    light = np.zeros((plan.texel_count, 3))
+    light = TexelLight.zeros(plan.texel_count)
     for index in range(plan.chunk_count):
         if cancelled():
             raise BakeCancelled("Bake cancelled while lighting the lightmap.")
         chunk = plan.chunk(index)
-        light[chunk] = light_chunk(solution, plan, index, timer)
+        light.put(chunk, light_chunk(solution, plan, index, timer))
         progress(chunk.stop / plan.texel_count, f"Lightmap: {chunk.stop} of {plan.texel_count} texels lit")
     return finish_lightmap(solution, plan, light, timer.laps)
 
@@ -140,12 +163,12 @@ def plan_texels(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, wid
                                             settings.subtexel_samples_per_edge, points, moved, 4 * offset)
     if settings.indirect == "auto":
         settings = replace(settings, indirect="gather" if gather_pays(solution) else "interpolate")
-    return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, sub_points, sub_bary,
-                     moved, contact, settings, TEXELS_PER_CHUNK)
+    return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
+                     sub_bary, moved, contact, settings, TEXELS_PER_CHUNK)
 
 
-def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = None) -> np.ndarray:
-    """(c, 3) direct + indirect light of the c texels of chunk ``index``: depends on the solution, the plan and the
+def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = None) -> TexelLight:
+    """The direct and indirect light of the c texels of chunk ``index``: depends on the solution, the plan and the
     index only (the shadow and gather rays are seeded from the chunk's first texel, so no two chunks repeat each
     other's samples). Light arrives by the shading normal (smooth shading, as Cycles bakes); the faces' own normals
     find buried points and the receivers to interpolate from."""
@@ -160,20 +183,25 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
                            first_texel, world=not gather)
     timer.lap("direct")
     if gather:
-        light = _footprint_mean(scene, direct, tri, sub_bary) + final_gather(
-            solution, solution.caster, sub_points, scene.shading_normals(tri, barycentric),
-            settings.gather_samples_per_edge, solution.offset_m, settings.seed + first_texel,
-            face_normals=normals)
+        indirect, variance = final_gather(solution, solution.caster, sub_points,
+                                          scene.shading_normals(tri, barycentric), settings.gather_samples_per_edge,
+                                          solution.offset_m, settings.seed + first_texel, face_normals=normals)
     else:
-        indirect = _interpolated_indirect(solution, tri, barycentric, points, normals, sub_points)
-        light = _footprint_mean(scene, direct + indirect, tri, sub_bary)
+        indirect = _footprint_mean(scene, _interpolated_indirect(solution, tri, barycentric, points, normals,
+                                                                 sub_points), tri, sub_bary)
+        variance = np.zeros_like(indirect)
     timer.lap("indirect")
-    return light
+    return TexelLight(_footprint_mean(scene, direct, tri, sub_bary), indirect, variance)
 
 
-def finish_lightmap(solution, plan: TexelPlan, light: np.ndarray, seconds: dict | None = None) -> Lightmap:
-    """The page from its texels' (m, 3) light (all chunks): contacts black, then dilated into the padding."""
-    light = solution.output_light(light, plan.tri)
+def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict | None = None) -> Lightmap:
+    """The page from its texels' light (all chunks): the gathered light denoised, contacts black, then dilated
+    into the padding."""
+    indirect = light.indirect
+    if plan.settings.indirect == "gather" and plan.settings.denoise:
+        indirect = denoise_gathered(plan.pixel, plan.width, plan.height, plan.points, plan.normals, plan.texel_m,
+                                    indirect, light.indirect_variance)
+    light = solution.output_light(light.direct + indirect, plan.tri)
     # Resting on another face, no light gets there; texels pushed out to the visible floor beside a box keep that
     # light, so bilinear filtering shows no dark rim around the box.
     light[plan.contact & ~plan.moved] = 0.0

@@ -209,7 +209,7 @@ class Solution:
         gathered = gather_samples_per_edge > 0
         if gathered:
             indirect = np.pi * final_gather(self, self.caster, points[:, None, :], normals, gather_samples_per_edge,
-                                            self.offset_m, seed_offset)
+                                            self.offset_m, seed_offset)[0]
         else:
             indirect = np.pi * self._indirect_light()[element[alive], face[alive]]
         irradiance = self.direct.irradiance(points, normals, 1, seed_offset, one_light=True, world=not gathered)

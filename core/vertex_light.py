@@ -64,11 +64,11 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
     light = np.zeros((len(first), 3))
     near_m = NEAR_ELEMENTS * solution.element_size_m
     here = np.flatnonzero(gathered)
+    indirect, _ = final_gather(solution, solution.caster, point[here][:, None, :], shade[here],
+                               gather_samples_per_edge, solution.offset_m, seed, face_normals=face[here],
+                               near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE)
     light[here] = solution.output_light(solution.direct_light(
-        point[here], shade[here], triangle[here], moved[first][here], world=False) + final_gather(
-        solution, solution.caster, point[here][:, None, :], shade[here], gather_samples_per_edge,
-        solution.offset_m, seed, face_normals=face[here], near_m=near_m,
-        near_samples_per_edge=NEAR_SAMPLES_PER_EDGE), triangle[here])
+        point[here], shade[here], triangle[here], moved[first][here], world=False) + indirect, triangle[here])
     rest = np.flatnonzero(~gathered)
     light[rest] = solution.light_at(triangle[rest], moved[first][rest], point[rest], face[rest], direct_per_point=True)
     return light[shared]

@@ -7,7 +7,8 @@ from core import BakeSettings, Material, Scene, SceneError, SettingsError, SunLi
 from core.atlas import (AtlasSize, atlas_size, layout_atlas, modifier_uv_problem, pack_blocks, pages_without_overlap,
                         uv_area)
 import core.lightmap
-from core.lightmap import LightmapSettings, bake_lightmap, dilate, finish_lightmap, light_chunk, plan_texels
+from core.lightmap import (LightmapSettings, TexelLight, bake_lightmap, dilate, finish_lightmap, light_chunk,
+                           plan_texels)
 from core.errors import BakeCancelled
 from core.geometry import triangle_unit_normals
 from core.gather import mean_free_path_m
@@ -274,9 +275,9 @@ def test_chunks_lit_in_any_order_from_a_saved_solution_make_the_same_page(monkey
     solution = load_solution(str(tmp_path / "solved"))
     plan = plan_texels(solution, np.arange(len(triangles)), corner_uv, layout.width, layout.height, settings)
     assert plan.chunk_count >= 3
-    light = np.zeros((plan.texel_count, 3))
+    light = TexelLight.zeros(plan.texel_count)
     for index in reversed(range(plan.chunk_count)):
-        light[plan.chunk(index)] = light_chunk(solution, plan, index)
+        light.put(plan.chunk(index), light_chunk(solution, plan, index))
     assert np.array_equal(finish_lightmap(solution, plan, light).light, whole.light)
 
 

@@ -1,0 +1,71 @@
+"""Denoising the final gather's indirect light over a lightmap page, guided by the gather's own noise.
+
+A cross-bilateral filter whose range term is the difference of two texels' gathered values measured in their
+estimated noise, the per-pixel distance of non-local means filtering for Monte Carlo images (Rousselle, Knaus &
+Zwicker 2012, "Adaptive Rendering with Non-Local Means Filtering", section 4.1):
+
+    d^2(p, q) = [(u_p - u_q)^2 - (Var_p + min(Var_p, Var_q))] / [eps + k^2 (Var_p + Var_q)],
+    w(p, q)   = exp(-max(0, d^2))      (d^2 averaged over the colour channels),
+
+where u is a texel's gathered light and Var the variance of that mean (the rays' sample variance over their
+count; stratified directions make it an overestimate, which errs on the side of smoothing). Two texels whose values
+differ by no more than their noise are averaged; a real change of the indirect light, a contact shadow or a bright
+wall's bounce, differs by more and is kept.
+
+Neighbours come from the page's texel grid within RADIUS_TEXELS, and count only on the same surface: normals within
+NORMAL_COSINE of each other, the neighbour within PLANE_TEXELS of the texel's plane, and no farther away in the
+world than its place in the grid allows (texels of another chart that sit beside it in the atlas are not its
+neighbours). Direct light, exact per texel, is not filtered.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import lengths
+
+RADIUS_TEXELS = 2
+# k of the range term: 1.5-2 measured best on the courtyard (docs/benchmarks.md, "Denoising the gather").
+NOISE_MULTIPLE = 2.0
+NORMAL_COSINE = 0.9
+PLANE_TEXELS = 0.5
+GRID_SLACK_TEXELS = 1.5
+
+
+def denoise_gathered(pixel: np.ndarray, width: int, height: int, points: np.ndarray, normals: np.ndarray,
+                     texel_m: np.ndarray, light: np.ndarray, variance: np.ndarray) -> np.ndarray:
+    """(m, 3) filtered ``light`` of m texels at flat ``pixel`` indices (y * width + x) of a page, with their (m, 3)
+    world ``points``, unit ``normals``, (m,) edge length ``texel_m`` and the (m, 3) ``variance`` of each mean."""
+    texel_at = np.full(width * height, -1, dtype=np.int64)
+    texel_at[pixel] = np.arange(len(pixel))
+    x, y = pixel % width, pixel // width
+    total, weight = light.copy(), np.ones(len(pixel))
+    for dy in range(-RADIUS_TEXELS, RADIUS_TEXELS + 1):
+        for dx in range(-RADIUS_TEXELS, RADIUS_TEXELS + 1):  # one offset of the window at a time over all texels
+            if dx == dy == 0:
+                continue
+            on_page = np.flatnonzero((x + dx >= 0) & (x + dx < width) & (y + dy >= 0) & (y + dy < height))
+            neighbour = texel_at[pixel[on_page] + dy * width + dx]
+            texel, neighbour = on_page[neighbour >= 0], neighbour[neighbour >= 0]
+            same = _same_surface(points[texel], normals[texel], points[neighbour], normals[neighbour],
+                                 texel_m[texel] * (np.hypot(dx, dy) + GRID_SLACK_TEXELS), texel_m[texel])
+            texel, neighbour = texel[same], neighbour[same]
+            w = _noise_weight(light[texel], variance[texel], light[neighbour], variance[neighbour])
+            total[texel] += w[:, None] * light[neighbour]
+            weight[texel] += w
+    return total / weight[:, None]
+
+
+def _same_surface(points, normals, other_points, other_normals, reach_m, texel_m) -> np.ndarray:
+    """Whether each neighbour lies on the texel's surface: facing the same way, on its plane, within reach."""
+    offset = other_points - points
+    return ((np.einsum("mk,mk->m", normals, other_normals) > NORMAL_COSINE)
+            & (np.abs(np.einsum("mk,mk->m", offset, normals)) < PLANE_TEXELS * texel_m)
+            & (lengths(offset) < reach_m))
+
+
+def _noise_weight(light, variance, other_light, other_variance) -> np.ndarray:
+    """Rousselle et al.'s weight exp(-max(0, d^2)) of each neighbour (module docstring)."""
+    excess = (light - other_light) ** 2 - (variance + np.minimum(variance, other_variance))
+    scale = NOISE_MULTIPLE ** 2 * (variance + other_variance)
+    distance = np.divide(excess, scale, out=np.where(excess > 0, np.inf, 0.0), where=scale > 0).mean(axis=1)
+    return np.exp(-np.maximum(distance, 0.0))

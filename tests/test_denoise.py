@@ -1,0 +1,68 @@
+"""The gather's denoiser against known truth: a page whose true indirect light is given, with Gaussian noise of a
+known variance added. Averaging n independent texels divides the noise's standard deviation by sqrt(n); a real
+step of the light, many times the noise, must stay where it is; another chart beside it in the atlas must not mix
+in; and light without noise passes unchanged."""
+import numpy as np
+import pytest
+
+from core.denoise import denoise_gathered
+
+SIZE, TEXEL_M = 48, 0.1
+
+
+def flat_page(rows=SIZE, columns=SIZE, height_m=0.0):
+    """Texels of a rows x columns chart on the plane z = height_m, facing up, 0.1 m apart."""
+    y, x = np.mgrid[:rows, :columns]
+    points = np.stack([x.ravel() * TEXEL_M, y.ravel() * TEXEL_M, np.full(x.size, height_m)], axis=1)
+    return (y * columns + x).ravel(), points, np.tile([0.0, 0.0, 1.0], (x.size, 1))
+
+
+def noisy(truth, relative_sd, seed=0):
+    sd = relative_sd * truth
+    return truth + np.random.default_rng(seed).normal(size=truth.shape) * sd, sd ** 2
+
+
+def test_noise_falls_and_a_step_stays():
+    """Light 1.0 left of the middle and 4.0 right of it (a bounce off a bright wall), with 10% noise. The filter's
+    window is 5 x 5 texels: the noise over the whole page must fall below half (sqrt(25) = 5 is the bound), and
+    the columns on either side of the step keep their own level within 3% (blurring over the step would move them
+    by a fifth of it or more, 60% on the dark side)."""
+    pixel, points, normals = flat_page()
+    column = pixel % SIZE
+    truth = np.where(column < SIZE // 2, 1.0, 4.0)[:, None] * np.ones(3)
+    light, variance = noisy(truth, 0.1)
+    filtered = denoise_gathered(pixel, SIZE, SIZE, points, normals, np.full(len(pixel), TEXEL_M), light, variance)
+    relative_error = lambda values: np.sqrt(np.mean(((values - truth) / truth) ** 2))
+    assert relative_error(filtered) < 0.5 * relative_error(light)
+    for side in (SIZE // 2 - 1, SIZE // 2):
+        at = column == side
+        assert filtered[at].mean() == pytest.approx(truth[at].mean(), rel=0.03)
+
+
+def test_another_chart_beside_it_in_the_atlas_does_not_mix_in():
+    """Two charts side by side on the page, one on the floor (light 1.0) and one on a ceiling 3 m above (light
+    0.8), with the same 10% noise: close enough in value to be averaged by their noise alone (which would pull the
+    floor's edge column about 7% down), but another surface. The floor's texels beside the ceiling's keep their
+    level within 2%."""
+    pixel, points, normals = flat_page(columns=SIZE // 2)
+    pixel = (pixel // (SIZE // 2)) * SIZE + pixel % (SIZE // 2)
+    ceiling_points = points + [SIZE // 2 * TEXEL_M, 0.0, 3.0]
+    all_pixel = np.concatenate([pixel, pixel + SIZE // 2])
+    all_points = np.concatenate([points, ceiling_points])
+    truth = np.concatenate([np.full(len(pixel), 1.0), np.full(len(pixel), 0.8)])[:, None] * np.ones(3)
+    light, variance = noisy(truth, 0.1, seed=1)
+    filtered = denoise_gathered(all_pixel, SIZE, SIZE, all_points, np.concatenate([normals, normals]),
+                                np.full(len(all_pixel), TEXEL_M), light, variance)
+    edge = np.flatnonzero(all_pixel % SIZE == SIZE // 2 - 1)
+    assert filtered[edge].mean() == pytest.approx(1.0, rel=0.02)
+
+
+def test_light_without_noise_passes_unchanged():
+    """A gradient along x with zero variance: a neighbour in another column differs by more than its noise
+    (none) and counts for nothing, one in the same column holds the same value, so each texel keeps its own value
+    (to round-off)."""
+    pixel, points, normals = flat_page()
+    light = (1.0 + 0.05 * (pixel % SIZE))[:, None] * np.ones(3)
+    filtered = denoise_gathered(pixel, SIZE, SIZE, points, normals, np.full(len(pixel), TEXEL_M), light,
+                                np.zeros_like(light))
+    np.testing.assert_allclose(filtered, light, rtol=1e-12)
