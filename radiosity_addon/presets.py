@@ -37,7 +37,7 @@ class Preset:
 
 
 PRESETS = {
-    "DRAFT": Preset(16, 6, 0, 0.02, 2, 128, 8),
+    "DRAFT": Preset(16, 6, 0, 0.02, 2, 128, 6),
     "MEDIUM": Preset(32, 8, 1, 0.001, 7, 256, 8),
     "HIGH": Preset(48, 8, 1, 0.0005, 10, 512, 8),
 }
