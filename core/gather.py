@@ -66,19 +66,19 @@ def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.nd
                  near_samples_per_edge: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """(m, 3) indirect and world light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by
     its rays) with (m, 3) unit (shading) normals, from s^2 gather rays each, and the (m, 3) variance of that mean
-    (the rays' sample variance over their count, core.denoise); ``face_normals`` (m, 3), where they
-    differ from the shading normals, cut off the directions below the face. Where a ray lands within ``near_m``
-    of its origin, the light there is gathered again by ``near_samples_per_edge``^2 rays instead of taken from the
+    (the rays' sample variance over their count, for core.denoise); ``face_normals`` (m, 3), where they differ
+    from the shading normals, cut off the directions below the face. Where a ray lands within ``near_m`` of its
+    origin, the light there is gathered again by ``near_samples_per_edge``^2 rays instead of taken from the
     element: close by, in a concave corner, the element's one value is not the light of the spot the ray meets."""
     rays = samples_per_edge ** 2
     step = max(1, RAYS_PER_CHUNK // rays)
     faces = normals if face_normals is None else face_normals
     light, variance = np.zeros((len(points), 3)), np.zeros((len(points), 3))
     for start in range(0, len(points), step):  # bounded memory: at most RAYS_PER_CHUNK rays at once
-        stop = min(start + step, len(points))
-        light[start:stop], variance[start:stop] = _gather_chunk(solution, caster, points[start:stop], normals[start:stop],
-                                          faces[start:stop], samples_per_edge, offset_m, seed + start, near_m,
-                                          near_samples_per_edge)
+        part = slice(start, min(start + step, len(points)))
+        light[part], variance[part] = _gather_chunk(solution, caster, points[part], normals[part], faces[part],
+                                                    samples_per_edge, offset_m, seed + start, near_m,
+                                                    near_samples_per_edge)
     return light, variance
 
 

@@ -95,9 +95,10 @@ class TexelPlan:
 
     pixel: (m,) flat index of each texel in the (height, width) page; tri, barycentric: its scene triangle and
     the barycentrics of its point; points, normals: (m, 3) the point (pushed out of closed geometry where it was
-    inside) and its face's unit normal; texel_m: (m,) a texel's edge length on its triangle; sub_points, sub_bary: (m, q, 3) points over its footprint; moved, contact:
-    (m,) pushed out / resting on another face; settings: with the indirect method chosen; texels_per_chunk: the
-    chunks' size (the rays of a chunk are seeded from its first texel)."""
+    inside) and its face's unit normal; texel_m: (m,) a texel's edge length on its triangle; sub_points,
+    sub_bary: (m, q, 3) points over its footprint; moved, contact: (m,) pushed out / resting on another face;
+    settings: with the indirect method chosen; texels_per_chunk: the chunks' size (the rays of a chunk are seeded
+    from its first texel)."""
 
     width: int
     height: int
