@@ -24,6 +24,10 @@ INDIRECT_METHODS = ("auto", "gather", "interpolate")
 # Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
 # texel at High), and lets progress and Esc through between steps.
 TEXELS_PER_CHUNK = 8192
+# Shadow edges: a texel whose sub-points' direct light spreads over more than this share of the brightest is lit
+# again with at least this many shadow rays per edge at each point (docs/benchmarks.md, "Penumbra texels").
+PENUMBRA_SPREAD = 0.1
+PENUMBRA_SAMPLES_PER_EDGE = 3
 
 
 @dataclass(frozen=True)
@@ -181,7 +185,7 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
     gather = settings.indirect == "gather"  # its rays bring the world's light
     direct = _direct_light(solution, sub_points, shading, tri, barycentric, settings.subtexel_samples_per_edge,
-                           first_texel, world=not gather)
+                           first_texel, plan.texel_count, world=not gather)
     timer.lap("direct")
     if gather:
         indirect, variance = final_gather(solution, solution.caster, sub_points,
@@ -252,16 +256,28 @@ def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, p
     return sub_points, bary
 
 
-def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge, first_texel,
+def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge, first_texel, texel_count,
                   world: bool) -> np.ndarray:
     """(m, q, 3) direct light at the (m, q, 3) sub-texel points with their unit normals, with 1/k the shadow rays
-    per edge at each (rounded up); the world's only if ``world``."""
+    per edge at each (rounded up); the world's only if ``world``. Texels on a shadow's edge, where the sub-points'
+    light spreads over more than PENUMBRA_SPREAD of the brightest, are lit again with at least
+    PENUMBRA_SAMPLES_PER_EDGE^2 rays per point, new rays in place of the first (an estimate independent of the
+    test that chose the texel, so the choice adds no bias); a penumbra is where a few rays per point are noisiest."""
     q = sub_points.shape[1]
     light_samples = -(-solution.direct.samples_per_edge // samples_per_edge)
-    light = solution.direct_light(sub_points.reshape(-1, 3), normals.reshape(-1, 3), np.repeat(tri, q),
-                                  np.repeat(barycentric, q, axis=0), light_samples, seed_offset=q * first_texel,
-                                  world=world)
-    return light.reshape(-1, q, 3)
+
+    def lit(texels, samples, seed_offset):
+        return solution.direct_light(sub_points[texels].reshape(-1, 3), normals[texels].reshape(-1, 3),
+                                     np.repeat(tri[texels], q), np.repeat(barycentric[texels], q, axis=0), samples,
+                                     seed_offset=seed_offset, world=world).reshape(-1, q, 3)
+
+    light = lit(slice(None), light_samples, q * first_texel)
+    if light_samples < PENUMBRA_SAMPLES_PER_EDGE:
+        brightness = np.nan_to_num(light).sum(axis=2)
+        edge = np.flatnonzero(np.ptp(brightness, axis=1) > PENUMBRA_SPREAD * brightness.max(axis=1))
+        # Seeds past every texel's first pass (q * texel_count), so no ray repeats another's.
+        light[edge] = lit(edge, PENUMBRA_SAMPLES_PER_EDGE, q * (texel_count + first_texel))
+    return light
 
 
 def texel_size_m(triangles_m: np.ndarray, corner_uv: np.ndarray, width: int, height: int) -> np.ndarray:
