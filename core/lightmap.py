@@ -27,7 +27,7 @@ TEXELS_PER_CHUNK = 8192
 # Shadow edges: a texel whose sub-points' direct light spreads over more than this share of the brightest is lit
 # again with at least this many shadow rays per edge at each point (docs/benchmarks.md, "Penumbra texels").
 PENUMBRA_SPREAD = 0.1
-PENUMBRA_SAMPLES_PER_EDGE = 3
+PENUMBRA_SAMPLES_PER_EDGE = 2
 
 
 @dataclass(frozen=True)

@@ -437,15 +437,16 @@ def test_the_contact_grid_finds_every_triangle_a_point_lies_in(layout, budget, m
     assert (inside_any_triangle(points, normals, triangles, 0.002) == expected).all()
 
 
-@pytest.mark.parametrize("penumbra_samples, tolerance", [(core.lightmap.PENUMBRA_SAMPLES_PER_EDGE, 0.075), (1, None)])
+@pytest.mark.parametrize("penumbra_samples, tolerance", [(core.lightmap.PENUMBRA_SAMPLES_PER_EDGE, 0.09), (1, None)])
 def test_a_soft_shadow_edge_matches_the_disk_it_hides(monkeypatch, penumbra_samples, tolerance):
     """A floor under a sun straight above, of angular diameter 0.3 rad, sampled as a uniform disk of slopes of
     radius r = tan(0.15); a black sheet 2 m up covers x < 0. From floor point x the sheet hides the sun's
     directions of slope below -x / 2, so the floor holds (E / pi) (1 - A(-x / 2r)), with A(u) = (pi - acos u +
     u sqrt(1 - u^2)) / pi the share of the unit disk left of u, averaged over each texel's 3 x 3 sub-points. With
     Draft's one shadow ray per sub-point, 9 rays per texel, the 0.6 m penumbra's noise is up to sqrt(0.25 / 9) =
-    17% of the full sun (measured 12.7% RMS); texels on it get 3 x 3 rays per point instead (81 rays: at most
-    5.6%), except the few whose first nine rays happened to agree: within 7.5% RMS, and no bias."""
+    17% of the full sun (measured 12.7% RMS); texels on it get 2 x 2 rays per point instead (36 rays: at most
+    sqrt(0.25 / 36) = 8.3%), except the few whose first nine rays happened to agree: within 9% RMS, and no
+    bias."""
     monkeypatch.setattr(core.lightmap, "PENUMBRA_SAMPLES_PER_EDGE", penumbra_samples)
     floor = quad((-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0))
     sheet = quad((-3, -3, 2), (0, -3, 2), (0, 3, 2), (-3, 3, 2))
@@ -466,7 +467,7 @@ def test_a_soft_shadow_edge_matches_the_disk_it_hides(monkeypatch, penumbra_samp
     assert penumbra.sum() > 300
     error = np.sqrt(np.mean((light.direct[penumbra, 0] - expected[penumbra]) ** 2)) / (3.0 / np.pi)
     if tolerance is None:
-        assert error > 0.1    # the test can fail: one ray per point is far off
+        assert error > 0.11    # the test can fail: one ray per point is far off
     else:
         assert error < tolerance
         assert abs(np.mean(light.direct[penumbra, 0] - expected[penumbra])) < 0.01 * 3.0 / np.pi
