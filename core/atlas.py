@@ -10,6 +10,8 @@ UVs follow Blender's convention: (0, 0) is the lower-left corner of the image, t
 """
 from __future__ import annotations
 
+import time
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +22,8 @@ from .geometry import triangle_areas
 from .texels import rasterize
 
 OVERLAP_TOLERANCE = 0.01  # share of an object's texel centres that may fall on another object's
+ATLAS_SETTLE_S = 0.01  # how long an xatlas atlas is kept after generate() before it is freed (see SettlingAtlases)
+ATLAS_HELD_MAX = 16  # atlases kept at once, each with its idle worker threads
 
 
 @dataclass
@@ -31,19 +35,57 @@ class ChartBlock:
     height: int
 
 
+class SettlingAtlases:
+    """Keeps each xatlas atlas for ATLAS_SETTLE_S after its generate() before freeing it.
+
+    xatlas's thread pool (TaskScheduler::~TaskScheduler) wakes its workers to shut down without holding their
+    mutex. A worker that has just finished the last task and is between checking its wake-up flag and sleeping
+    misses that wake-up, and freeing the atlas then waits forever in std::thread::join. A worker needs microseconds
+    to fall asleep, so freeing an atlas only once it has rested closes the window. Use as a context manager: on exit
+    it waits for the youngest atlas to rest and frees them all."""
+
+    def __init__(self):
+        self._held = deque()  # (monotonic time from which the atlas may be freed, atlas), oldest first
+
+    def __enter__(self) -> SettlingAtlases:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self._free(keep=0)
+
+    def hold(self, atlas: xatlas.Atlas) -> None:
+        """Keep ``atlas``, whose generate() has just returned, until it has rested; free those that have."""
+        self._held.append((time.monotonic() + ATLAS_SETTLE_S, atlas))
+        self._free(keep=ATLAS_HELD_MAX)
+
+    def _free(self, keep: int) -> None:
+        """Free rested atlases; wait for the oldest to rest while more than ``keep`` are held."""
+        while self._held:
+            wait_s = self._held[0][0] - time.monotonic()
+            if wait_s > 0:
+                if len(self._held) <= keep:
+                    return
+                time.sleep(wait_s)
+            self._held.popleft()
+
+
 def unwrap(positions_m: np.ndarray, triangle_vertices: np.ndarray, texels_per_metre: float,
-           padding_texels: int) -> ChartBlock:
+           padding_texels: int, atlases: SettlingAtlases) -> ChartBlock:
     """Charts of a triangle mesh (world-scale (V, 3) positions, (t, 3) vertex indices) packed by xatlas at the
-    given texel density, with ``padding_texels`` between charts and around the block's border."""
-    atlas = xatlas.Atlas()
-    atlas.add_mesh(np.ascontiguousarray(positions_m, dtype=np.float32),
-                   np.ascontiguousarray(triangle_vertices, dtype=np.uint32))
+    given texel density, with ``padding_texels`` between charts and around the block's border. The atlas goes to
+    ``atlases`` to be freed safely."""
     pack = xatlas.PackOptions()
     pack.texels_per_unit = float(texels_per_metre)
     pack.padding = int(padding_texels)
     pack.bilinear = True
     pack.resolution = 0
-    atlas.generate(xatlas.ChartOptions(), pack)
+    atlas = xatlas.Atlas()
+    try:
+        atlas.add_mesh(np.ascontiguousarray(positions_m, dtype=np.float32),
+                       np.ascontiguousarray(triangle_vertices, dtype=np.uint32))
+        atlas.generate(xatlas.ChartOptions(), pack)
+    finally:
+        atlases.hold(atlas)
     if atlas.atlas_count != 1:
         raise SettingsError(f"The lightmap charts of one mesh need {atlas.atlas_count} atlases; lower the "
                             "texel density.")
@@ -184,7 +226,9 @@ def layout_atlas(meshes: list[tuple[np.ndarray, np.ndarray]], mesh_of_object: li
 
 
 def _layout(meshes, mesh_of_object, padding_texels, max_size, texels_per_metre) -> AtlasLayout:
-    blocks = [unwrap(positions, triangles, texels_per_metre, padding_texels) for positions, triangles in meshes]
+    with SettlingAtlases() as atlases:
+        blocks = [unwrap(positions, triangles, texels_per_metre, padding_texels, atlases)
+                  for positions, triangles in meshes]
     sizes = np.array([(blocks[m].width, blocks[m].height) for m in mesh_of_object])
     offsets, page, width, height = pack_blocks(sizes, max_size)
     corner_uv = [(blocks[m].corner_texels + offset) / [width, height] for m, offset in zip(mesh_of_object, offsets)]
