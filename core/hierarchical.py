@@ -12,8 +12,8 @@
 3. Radiosity is found by Jacobi iteration of B = E + rho (H_direct + sum_links F B_node) (Cohen & Wallace 1993,
    ch. 5), where B_node is a node's mean radiosity per side over its exposed area, a prefix-sum difference
    (core.cluster_tree). It stops when the change in radiated power falls below the residual threshold; the light
-   the remaining iterations would add is the ambient term (Cohen et al. 1988), with the scene's enclosure measured
-   from the links.
+   the remaining iterations would add is the ambient term (Cohen et al. 1988), a geometric series whose ratio is
+   the decay of that change from one iteration to the next.
 
 Memory: the links (16 bytes each, a few hundred per live side), the tree (O(n)) and per-element arrays: nothing is
 O(n^2), and nothing depends on the input triangle count beyond the pieces.
@@ -121,7 +121,8 @@ class HierarchicalState:
     (n, 3); per side (n, 2) the exposed area and the area that sends light into the scene (0 for isolated sides);
     the solve's history, the enclosure (the share of the light leaving the receivers that lands on the scene, from
     the links' covered shares), the irradiance each receiver last gathered from reflected light and what the last
-    iteration added to it (R, 3)."""
+    iteration added to it (R, 3), the change in radiated power (3,) W of the last iteration and its ratio to the
+    one before (the iteration's decay per channel)."""
 
     clusters: FaceClusters
     tree: ClusterTree
@@ -136,6 +137,8 @@ class HierarchicalState:
     enclosure: float = 0.0
     gathered: np.ndarray | None = None
     increment: np.ndarray | None = None
+    power_change_w: np.ndarray | None = None
+    decay: np.ndarray | None = None
 
     @property
     def emission(self) -> np.ndarray:
@@ -162,16 +165,21 @@ class HierarchicalState:
 
     def ambient(self) -> np.ndarray:
         """(n, 2, 3) irradiance the unfinished iterations would still add: each side's last increment continued as
-        a geometric series of ratio r = rho_eff f per channel (Cohen et al. 1988's ambient term, with the light
-        spread where it was last arriving rather than evenly, since the outside of a room's walls never gets
-        any; rho_eff is the reflectance and f the enclosure, both weighted by the power the sides radiate)."""
+        a geometric series of ratio r per channel (Cohen et al. 1988's ambient term, with the light spread where it
+        was last arriving rather than evenly, since the outside of a room's walls never gets any). r is the decay
+        of the radiated power's change over the last two iterations: Jacobi's error shrinks by the spectral radius
+        of rho F each iteration (Cohen & Wallace 1993, ch. 5). After a single iteration, r = rho_eff f instead:
+        the reflectance and the enclosure, both weighted by the power the sides radiate."""
         if self.increment is None:
             return np.zeros_like(self.irradiance)
         receivers = self.receivers
-        power = self.radiosity[receivers.element, receivers.side] * \
-            self.exposed_m2[receivers.element, receivers.side][:, None]
-        rho = (self.reflectance[receivers.element] * power).sum(axis=0) / np.maximum(power.sum(axis=0), 1e-300)
-        ratio = np.clip(rho * self.enclosure, 0.0, 0.99)
+        if self.decay is not None:
+            ratio = np.clip(self.decay, 0.0, 0.99)
+        else:
+            power = self.radiosity[receivers.element, receivers.side] * \
+                self.exposed_m2[receivers.element, receivers.side][:, None]
+            rho = (self.reflectance[receivers.element] * power).sum(axis=0) / np.maximum(power.sum(axis=0), 1e-300)
+            ratio = np.clip(rho * self.enclosure, 0.0, 0.99)
         tail = np.zeros_like(self.irradiance)
         tail[receivers.element, receivers.side] = self.increment * ratio / (1.0 - ratio)
         return tail
@@ -220,7 +228,11 @@ def solve(state: HierarchicalState, residual_threshold: float, max_iterations: i
         updated = state.radiosity
         change = updated - radiosity
         radiosity = updated
-        residual = float((np.abs(change) * state.exposed_m2[..., None]).sum() / injected) if injected else 0.0
+        power_change = (np.abs(change) * state.exposed_m2[..., None]).sum(axis=(0, 1))
+        if state.power_change_w is not None:
+            state.decay = power_change / np.maximum(state.power_change_w, 1e-300)
+        state.power_change_w = power_change
+        residual = float(power_change.sum() / injected) if injected else 0.0
         state.history.append(ConvergenceStep(iteration, residual, time.perf_counter() - started, rays()))
         progress(min(1.0, np.log(max(residual, 1e-12)) / np.log(max(residual_threshold, 1e-12))),
                  f"Solving: iteration {iteration}, residual {residual:.4f}")

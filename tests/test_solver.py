@@ -249,6 +249,25 @@ def test_bake_adds_the_ambient_term_for_what_an_early_stop_left_unshot(solver):
     assert without < 0.9 * 5.0
 
 
+def test_an_early_stop_beside_a_bright_open_plane_still_fills_a_closed_room():
+    """The rho = 0.8 furnace room (B = E / (1 - rho) = 5 inside) 10 m from a lamp-lit plane open to the sky: the
+    plane's first reflection dominates the injected power, so the solve stops after two iterations with the room
+    half filled. The ambient term continues the last increment by the iterations' own decay (0.8 in the room),
+    so the room's mean comes within 1% of 5; a ratio of the power-weighted reflectance times the enclosure (the
+    plane's light mostly escapes) left it at 2.46."""
+    room, _ = closed_box(0.8, uniform_exitance=1.0)
+    plane = quad((10, -5, 0), (20, -5, 0), (20, 5, 0), (10, 5, 0))
+    scene = Scene(np.concatenate([room.triangles, plane]), np.r_[np.zeros(12, int), np.ones(2, int)],
+                  [room.materials[0], Material("floor", (0.8,) * 3)],
+                  lights=[PointLight("bulb", (15.0, 0.0, 3.0), power_w=2000.0)])
+    solution = bake(scene, BakeSettings(patch_size_m=0.5, element_size_m=0.25, residual_threshold=0.05))
+    assert len(solution.history) == 2
+    elements, in_room = solution.elements, solution.elements.point[:, 0, 0] < 5.0
+    stopped = elements.emitted_exitance + elements.reflectance * elements.irradiance[:, 0]
+    assert stopped[in_room].mean() < 0.6 * 5.0
+    assert solution.element_radiosity()[in_room].mean() == pytest.approx(5.0, rel=0.01)
+
+
 def test_open_scene_gets_no_ambient_light():
     """A lone lit plane sends all its light away: its enclosure is 0, so the ambient term adds nothing."""
     plane = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
