@@ -223,7 +223,10 @@ def nearest_uncovered(caster: RayCaster, scene_triangles_m: np.ndarray, triangle
         found = free(middle, rows)
         clear[rows[found]], buried[rows[~found]] = middle[found], middle[~found]
     length = lengths(np.einsum("mc,mck->mk", toward, triangles_m[triangle]))
-    distance = np.where(np.isfinite(clear), clear * length, np.inf).reshape(count, lines)
+    distance = np.full(len(clear), np.inf)  # along each line to its first clear step; inf: none is clear
+    finite = np.isfinite(clear)
+    distance[finite] = clear[finite] * length[finite]
+    distance = distance.reshape(count, lines)
     best = distance.argmin(axis=1)
     out = barycentric.copy()
     found = np.flatnonzero(np.isfinite(distance[np.arange(count), best]))
