@@ -168,13 +168,14 @@ class HierarchicalState:
         a geometric series of ratio r per channel (Cohen et al. 1988's ambient term, with the light spread where it
         was last arriving rather than evenly, since the outside of a room's walls never gets any). r is the decay
         of the radiated power's change over the last two iterations: Jacobi's error shrinks by the spectral radius
-        of rho F each iteration (Cohen & Wallace 1993, ch. 5). After a single iteration, r = rho_eff f instead:
-        the reflectance and the enclosure, both weighted by the power the sides radiate."""
+        of rho F each iteration (Cohen & Wallace 1993, ch. 5), at most the largest reflectance (F's rows sum to 1
+        at most), which bounds a ratio measured across a change of links. After a single iteration, r = rho_eff f
+        instead: the reflectance and the enclosure, both weighted by the power the sides radiate."""
         if self.increment is None:
             return np.zeros_like(self.irradiance)
         receivers = self.receivers
         if self.decay is not None:
-            ratio = np.clip(self.decay, 0.0, 0.99)
+            ratio = np.clip(self.decay, 0.0, self.reflectance[receivers.element].max(axis=0))
         else:
             power = self.radiosity[receivers.element, receivers.side] * \
                 self.exposed_m2[receivers.element, receivers.side][:, None]
