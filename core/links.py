@@ -333,39 +333,35 @@ def _sampled_factors(sources: LinkSources, caster, points, normals, node, offset
     exact factor to it); nearer ones take the exact factor. The geometry is float32, as the tree's parts are:
     these arrays are the largest of the solve."""
     tree = sources.tree
-    pair, direction = np.nonzero(tree.class_exposed[node] > 0)          # only the classes a node has
-    part = (node[pair], direction)
-    flat = tree.sample[part].ravel()                                    # (m K): (element x 2 + side) x S + k
     per_part = tree.sample.shape[-1]
-    target, target_normal = tree.centroid[part], tree.normal[part]      # (m, K, 3): each part's centroid, normal
-    area = tree.class_exposed[part] / NODE_SAMPLES                      # (m,)
-    delta = target - points.astype(np.float32)[pair, None, :]
-    distance2 = np.einsum("mki,mki->mk", delta, delta).ravel()
+    pair, direction = np.nonzero(tree.class_exposed[node] > 0)          # only the classes a node has
+    part = node[pair] * 6 + direction                                   # (m,): flat (node, class) of each
+    delta = tree.centroid.reshape(-1, per_part, 3)[part] - points.astype(np.float32)[pair, None, :]   # (m, K, 3)
     receiver_side = np.einsum("mki,mi->mk", delta, normals.astype(np.float32)[pair]).ravel()   # r cos(receiver)
-    source_side = -np.einsum("mki,mki->mk", delta, target_normal).ravel()                      # r cos(source)
-    facing = np.flatnonzero((receiver_side > 0) & (source_side > 0))
-    weight = np.zeros(len(flat))
-    square_area = area[facing // per_part]
-    facing_distance2 = distance2[facing].astype(np.float64)
-    weight[facing] = square_area * receiver_side[facing] * source_side[facing] / (np.pi * facing_distance2 ** 2)
-    close = facing[square_area > NEAR_SHARE * np.pi * facing_distance2]
+    source_side = -np.einsum("mki,mki->mk", delta, tree.normal.reshape(-1, per_part, 3)[part]).ravel()
+    facing = np.flatnonzero((receiver_side > 0) & (source_side > 0))    # (f,) of the m K squares
+    facing_pair = facing // per_part
+    square = part[facing_pair] * per_part + facing % per_part           # (f,): flat (node, class, part)
+    delta = delta.reshape(-1, 3)[facing]
+    distance2 = np.einsum("fi,fi->f", delta, delta).astype(np.float64)
+    square_area = tree.class_exposed.ravel()[part[facing_pair]] / NODE_SAMPLES
+    weight = square_area * receiver_side[facing] * source_side[facing] / (np.pi * distance2 ** 2)
+    close = np.flatnonzero(square_area > NEAR_SHARE * np.pi * distance2)
     if len(close):
-        square = sample_squares(target.reshape(-1, 3)[close].astype(np.float64),
-                                target_normal.reshape(-1, 3)[close].astype(np.float64), area[close // per_part])
-        receiver = pair[close // per_part]
-        weight[close] = point_to_polygon(points[receiver], normals[receiver], square)
-    owner = pair[facing // per_part]
-    unoccluded = np.bincount(owner, weights=weight[facing], minlength=len(node))
+        polygon = sample_squares(tree.centroid.reshape(-1, 3)[square[close]].astype(np.float64),
+                                 tree.normal.reshape(-1, 3)[square[close]].astype(np.float64), square_area[close])
+        receiver = pair[facing_pair[close]]
+        weight[close] = point_to_polygon(points[receiver], normals[receiver], polygon)
+    owner = pair[facing_pair]
+    unoccluded = np.bincount(owner, weights=weight, minlength=len(node))
     origin = (points + offset_m * normals).astype(np.float32)[owner]
     if lift is not None:
-        ray = delta.reshape(-1, 3)[facing]
-        origin = lift[owner].origins(origin[:, None, :], (ray / lengths(ray)[:, None])[:, None, :])[:, 0]
-    ray = sources.side_point[flat[facing]] - origin
+        origin = lift[owner].origins(origin[:, None, :], (delta / lengths(delta)[:, None])[:, None, :])[:, 0]
+    ray = sources.side_point[tree.sample.ravel()[square]] - origin
     length = lengths(ray)
-    blocked = caster.occluded(origin, ray / np.maximum(length, 1e-30)[:, None], length)
-    seen = facing[~blocked]
-    factor = np.bincount(pair[seen // per_part] * 6 + direction[seen // per_part], weights=weight[seen],
+    seen = ~caster.occluded(origin, ray / np.maximum(length, 1e-30)[:, None], length)
+    factor = np.bincount(owner[seen] * 6 + direction[facing_pair[seen]], weights=weight[seen],
                          minlength=6 * len(node)).reshape(-1, 6)
-    hidden = np.bincount(owner, weights=blocked, minlength=len(node))
-    partial = (hidden > 0) & (hidden < np.bincount(owner, minlength=len(node)))
+    shown = np.bincount(owner, weights=seen, minlength=len(node))
+    partial = (shown > 0) & (shown < np.bincount(owner, minlength=len(node)))
     return factor, unoccluded, partial
