@@ -13,7 +13,6 @@ patch, ``patch_mean``) once computed, for the solvers (core.solver).
 """
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable
 
@@ -22,6 +21,7 @@ import numpy as np
 from .errors import BakeCancelled
 from .formfactor import hemicube_item_buffer, point_to_triangle_with_visibility, triangle_samples
 from .mesh import ElementMesh, Elements
+from .parallel import ordered_map
 from .progress import never_cancelled
 from .raycast import RayCaster
 from .geometry import triangle_areas, triangle_unit_normals
@@ -105,21 +105,13 @@ FormFactorMethod = RayCastRows | HemicubeRows
 
 
 def row_blocks(method: FormFactorMethod, patches: np.ndarray, receivers: Elements, threads: int):
-    """Yield (patch indices, (n, b) form factors) for all given patches, blocks computed on a thread pool.
-
-    numpy and embreex release the GIL on large arrays, so blocks run side by side on the machine's cores.
-    """
+    """Yield (patch indices, (n, b) form factors) for all given patches, blocks computed side by side on
+    ``threads`` threads (core.parallel)."""
     size = max(1, PAIRS_PER_BLOCK // max(1, len(receivers.node)))
     if isinstance(method, HemicubeRows):
         size = max(1, PAIRS_PER_BLOCK // (3 * method.resolution ** 2))
     blocks = [patches[start:start + size] for start in range(0, len(patches), size)]
-    with ThreadPoolExecutor(max(1, threads)) as pool:
-        pending = [pool.submit(method.block, block, receivers) for block in blocks[:threads]]
-        for index, block in enumerate(blocks):
-            factors = pending[index].result()
-            if index + threads < len(blocks):
-                pending.append(pool.submit(method.block, blocks[index + threads], receivers))
-            yield block, factors
+    yield from zip(blocks, ordered_map(lambda block: method.block(block, receivers), blocks, threads))
 
 
 class FormFactorCache:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import lengths, tangent_frames, triangle_areas, triangle_unit_normals
+from .parallel import ordered_map
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
@@ -63,22 +64,25 @@ def gather_pays(solution) -> bool:
 
 def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.ndarray, samples_per_edge: int,
                  offset_m: float, seed: int, face_normals: np.ndarray | None = None, near_m: float = 0.0,
-                 near_samples_per_edge: int = 0) -> tuple[np.ndarray, np.ndarray]:
+                 near_samples_per_edge: int = 0, workers: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """(m, 3) indirect and world light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by
     its rays) with (m, 3) unit (shading) normals, from s^2 gather rays each, and the (m, 3) variance of that mean
     (the rays' sample variance over their count, for core.denoise); ``face_normals`` (m, 3), where they differ
     from the shading normals, cut off the directions below the face. Where a ray lands within ``near_m`` of its
     origin, the light there is gathered again by ``near_samples_per_edge``^2 rays instead of taken from the
-    element: close by, in a concave corner, the element's one value is not the light of the spot the ray meets."""
+    element: close by, in a concave corner, the element's one value is not the light of the spot the ray meets.
+    Chunks of at most RAYS_PER_CHUNK rays (bounded memory), ``workers`` of them side by side (core.parallel),
+    each seeded by its first point."""
     rays = samples_per_edge ** 2
     step = max(1, RAYS_PER_CHUNK // rays)
     faces = normals if face_normals is None else face_normals
+    parts = [slice(start, min(start + step, len(points))) for start in range(0, len(points), step)]
+    gathered = lambda part: _gather_chunk(solution, caster, points[part], normals[part], faces[part],
+                                          samples_per_edge, offset_m, seed + part.start, near_m,
+                                          near_samples_per_edge)
     light, variance = np.zeros((len(points), 3)), np.zeros((len(points), 3))
-    for start in range(0, len(points), step):  # bounded memory: at most RAYS_PER_CHUNK rays at once
-        part = slice(start, min(start + step, len(points)))
-        light[part], variance[part] = _gather_chunk(solution, caster, points[part], normals[part], faces[part],
-                                                    samples_per_edge, offset_m, seed + start, near_m,
-                                                    near_samples_per_edge)
+    for part, (part_light, part_variance) in zip(parts, ordered_map(gathered, parts, workers)):
+        light[part], variance[part] = part_light, part_variance
     return light, variance
 
 

@@ -8,12 +8,14 @@ Blender stores pixels.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from itertools import chain
 
 import numpy as np
 
 from .denoise import denoise_gathered
 from .errors import BakeCancelled, SettingsError
 from .gather import final_gather, gather_pays
+from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import triangle_areas
 from .geometry import inset
@@ -140,17 +142,28 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
                   cancelled=never_cancelled) -> Lightmap:
     """Light the texels of one atlas image: ``scene_triangle`` (t,) are the solved scene triangles it holds and
     ``corner_uv`` (t, 3, 2) their UVs in [0, 1]. The three stages, ``plan_texels``, ``light_chunk`` per chunk and
-    ``finish_lightmap``, one after the other."""
+    ``finish_lightmap``, with chunks side by side (core.parallel)."""
     timer = Timer()
     plan = plan_texels(solution, scene_triangle, corner_uv, width, height, settings)
     timer.lap("texels")
-    light = TexelLight.zeros(plan.texel_count)
-    for index in range(plan.chunk_count):
+    light, chunk_seconds = TexelLight.zeros(plan.texel_count), {}
+
+    def lit(index: int) -> tuple[TexelLight, dict]:
+        chunk_timer = Timer()
+        return light_chunk(solution, plan, index, chunk_timer), chunk_timer.laps
+
+    # The first chunk alone builds the tables the solution computes on first use; the others then share them.
+    chunks = range(plan.chunk_count)
+    lights = chain(map(lit, chunks[:1]), ordered_map(lit, chunks[1:], steps_in_flight(solution.caster.threads)))
+    for index, (part, seconds) in zip(chunks, lights):
         if cancelled():
             raise BakeCancelled("Bake cancelled while lighting the lightmap.")
         chunk = plan.chunk(index)
-        light.put(chunk, light_chunk(solution, plan, index, timer))
+        light.put(chunk, part)
+        for phase, lap in seconds.items():
+            chunk_seconds[phase] = chunk_seconds.get(phase, 0.0) + lap
         progress(chunk.stop / plan.texel_count, f"Lightmap: {chunk.stop} of {plan.texel_count} texels lit")
+    timer.share(chunk_seconds)
     return finish_lightmap(solution, plan, light, timer.laps)
 
 

@@ -37,6 +37,7 @@ from .clusters import FaceClusters
 from .errors import BakeCancelled
 from .formfactor import point_to_polygon, triangle_samples, visible_fraction
 from .geometry import lengths, tangent_frames, triangle_unit_normals
+from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, never_cancelled, no_progress
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
@@ -128,17 +129,20 @@ def build_links(sources: LinkSources, points: np.ndarray, normals: np.ndarray, o
     """Links of receivers at (R, 3) points with unit (R, 3) normals (``own_element`` (R,): the element each lies
     on, -1 for none), with their form factors and visibility; ``covered`` (R,) is each one's covered share
     (``covered_share``)."""
-    parts = []
-    for first in range(0, len(points), RECEIVERS_PER_STEP):
-        if cancelled():
-            raise BakeCancelled("Bake cancelled while linking elements.")
-        rows = np.arange(first, min(first + RECEIVERS_PER_STEP, len(points)))
+    def block_links(rows: np.ndarray) -> list:
         receiver, node = accepted_nodes(sources.tree, points[rows], normals[rows], own_element[rows], opening,
                                         offset_m)
-        for start in range(0, len(receiver), PAIRS_PER_STEP):
-            chunk = slice(start, start + PAIRS_PER_STEP)
-            parts.append(_links_part(sources, caster, points, normals, rows[receiver[chunk]], node[chunk],
-                                     samples_per_edge, offset_m))
+        return [_links_part(sources, caster, points, normals, rows[receiver[start:start + PAIRS_PER_STEP]],
+                            node[start:start + PAIRS_PER_STEP], samples_per_edge, offset_m)
+                for start in range(0, len(receiver), PAIRS_PER_STEP)]
+
+    blocks = [np.arange(first, min(first + RECEIVERS_PER_STEP, len(points)))
+              for first in range(0, len(points), RECEIVERS_PER_STEP)]
+    parts = []
+    for rows, block in zip(blocks, ordered_map(block_links, blocks, steps_in_flight(caster.threads))):
+        if cancelled():
+            raise BakeCancelled("Bake cancelled while linking elements.")
+        parts += block
         progress(rows[-1] / max(1, len(points) - 1), f"Linking: {rows[-1] + 1} of {len(points)} receivers")
     parts.append(_links_part(sources, caster, points, normals, np.zeros(0, int), np.zeros(0, int), 1, offset_m))
     links = Links(*(np.concatenate(column) for column in zip(*parts)), covered)
@@ -175,10 +179,11 @@ def refine_links(links: Links, sources: LinkSources, caster: RayCaster, points: 
     (descending further tests every element behind every wall: docs/benchmarks.md, History). Links left with no
     visible factor are dropped, and rows capped again. Receivers are refined ``RECEIVERS_PER_STEP`` at a time,
     so the links being split stay few however many levels open."""
-    steps = [_refined(links.subset((links.receiver >= first) & (links.receiver < first + RECEIVERS_PER_STEP)),
-                      sources, caster, points, normals, deviation, radiosity, irradiance, tolerance,
-                      samples_per_edge, offset_m, cancelled)
-             for first in range(0, len(links.covered), RECEIVERS_PER_STEP)]
+    refined = lambda first: _refined(
+        links.subset((links.receiver >= first) & (links.receiver < first + RECEIVERS_PER_STEP)), sources, caster,
+        points, normals, deviation, radiosity, irradiance, tolerance, samples_per_edge, offset_m, cancelled)
+    steps = list(ordered_map(refined, range(0, len(links.covered), RECEIVERS_PER_STEP),
+                             steps_in_flight(caster.threads)))
     links = Links(*(np.concatenate(column) for column in zip(*[step.columns for step in steps])), links.covered)
     _cap_rows(links)
     return links

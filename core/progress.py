@@ -33,3 +33,12 @@ class Timer:
         now = time.perf_counter()
         self.laps[name] = self.laps.get(name, 0.0) + now - self._last
         self._last = now
+
+    def share(self, seconds: dict[str, float]) -> None:
+        """Add the time since the previous lap to the phases of ``seconds`` in proportion to their seconds there:
+        for phases timed on steps side by side (core.parallel), whose seconds overlap."""
+        now = time.perf_counter()
+        total = sum(seconds.values())
+        for name, part in seconds.items():
+            self.laps[name] = self.laps.get(name, 0.0) + (now - self._last) * part / max(total, 1e-300)
+        self._last = now

@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -48,15 +49,22 @@ def first_use_message() -> str | None:
 
 
 class RayCaster:
-    """A ray-casting scene over (T, 3, 3) triangles; counts the rays it casts in ``rays_cast``. Pickles as its
-    triangles and rebuilds the scene when unpickled, with the threads of the machine that loads it."""
+    """A ray-casting scene over (T, 3, 3) triangles, for queries from any thread (core.parallel's steps); counts
+    the rays it casts in ``rays_cast``. Pickles as its triangles and rebuilds the scene when unpickled, with the
+    threads of the machine that loads it."""
 
     def __init__(self, triangles: np.ndarray, threads: int | None = None):
         self._triangles = np.ascontiguousarray(triangles, dtype=np.float32)
         self._scene = _backend().Scene(self._triangles)
         self._threads = max(1, threads or os.cpu_count() or 1)
         self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
+        self._counting = threading.Lock()
         self.rays_cast = 0
+
+    @property
+    def threads(self) -> int:
+        """The threads its queries run on."""
+        return self._threads
 
     def __getstate__(self) -> dict:
         return {"triangles": self._triangles, "rays_cast": self.rays_cast}
@@ -84,7 +92,8 @@ class RayCaster:
     def _run(self, query, origins, directions, distances):
         """``query`` over chunks of CHUNK_RAYS rays on the thread pool; its results concatenated."""
         count = len(origins)
-        self.rays_cast += count
+        with self._counting:
+            self.rays_cast += count
         origins = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
         directions = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
         distances = np.ascontiguousarray(np.minimum(distances, np.finfo(np.float32).max), dtype=np.float32)

@@ -28,6 +28,7 @@ import numpy as np
 from .errors import SettingsError
 from .gather import final_gather
 from .geometry import lengths, tangent_frames, triangle_unit_normals
+from .parallel import steps_in_flight
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
@@ -66,7 +67,8 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
     here = np.flatnonzero(gathered)
     indirect, _ = final_gather(solution, solution.caster, point[here][:, None, :], shade[here],
                                gather_samples_per_edge, solution.offset_m, seed, face_normals=face[here],
-                               near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE)
+                               near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE,
+                               workers=steps_in_flight(solution.caster.threads))
     light[here] = solution.output_light(solution.direct_light(
         point[here], shade[here], triangle[here], moved[first][here], world=False) + indirect, triangle[here])
     rest = np.flatnonzero(~gathered)

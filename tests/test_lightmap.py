@@ -277,8 +277,8 @@ def test_same_seed_same_lightmap():
 def test_chunks_lit_in_any_order_from_a_saved_solution_make_the_same_page(monkeypatch, tmp_path):
     """The texel stage as independent tasks, as a render farm runs it: the solution written to a file and read
     back (a new ray-casting scene built from it), the page's chunks lit from that copy in reverse order, then put
-    together. The page equals the one-process bake bit for bit, gather and sub-texel shadow rays included (both
-    are seeded per chunk)."""
+    together. The page equals the one-process bake (chunks two at a time, core.parallel) bit for bit, gather and
+    sub-texel shadow rays included (both are seeded per chunk)."""
     monkeypatch.setattr(core.lightmap, "TEXELS_PER_CHUNK", 300)
     floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
     block = np.concatenate(box_faces((-0.3, -0.3, 0), (0.3, 0.3, 0.6), inward=False))
@@ -287,7 +287,8 @@ def test_chunks_lit_in_any_order_from_a_saved_solution_make_the_same_page(monkey
                   lights=[SunLight("sun", (0.3, 0.2, -1.0), strength_w_m2=3.0, angle_rad=0.1)],
                   world=World((0.2, 0.3, 0.4)))
     settings = LightmapSettings(indirect="gather", gather_samples_per_edge=3)
-    whole, layout, corner_uv = lightmap_of(scene, [floor, block], settings)
+    two_threads = BakeSettings(patch_size_m=1.0, element_size_m=0.5, threads=2)
+    whole, layout, corner_uv = lightmap_of(scene, [floor, block], settings, bake_settings=two_threads)
     save_solution(bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5)), str(tmp_path / "solved"))
     solution = load_solution(str(tmp_path / "solved"))
     plan = plan_texels(solution, np.arange(len(triangles)), corner_uv, layout.width, layout.height, settings)

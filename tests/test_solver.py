@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+import core.links
 from core import BakeSettings, Material, PointLight, Scene, World, bake
 from core.bake import ROUGH_RESIDUAL
 from core.cluster_tree import build_tree
@@ -151,6 +152,18 @@ def test_hierarchical_history_ends_below_the_threshold():
     restart = np.flatnonzero(np.diff(residuals) > 0)
     assert len(restart) <= 1 and residuals[-1] <= 0.001 < residuals[0]
     assert all(residuals[index] <= ROUGH_RESIDUAL for index in restart)
+
+
+def test_receivers_linked_side_by_side_solve_as_one_at_a_time(monkeypatch):
+    """Links built and refined a few receivers per step, steps on two threads (core.parallel), give the same links
+    and the same radiosity, bit for bit, as one step at a time on one thread."""
+    monkeypatch.setattr(core.links, "RECEIVERS_PER_STEP", 16)
+    monkeypatch.setattr(core.links, "PAIRS_PER_STEP", 500)
+    solved = [bake(room_with_block(), BakeSettings(patch_size_m=0.5, element_size_m=0.25, threads=threads))
+              for threads in (1, 2)]
+    assert solved[0].counts["element_sides"] > 10 * 16
+    assert solved[0].counts["links"] == solved[1].counts["links"]
+    assert np.array_equal(solved[0].elements.irradiance, solved[1].elements.irradiance)
 
 
 @pytest.mark.parametrize("solver", ["hierarchical", "progressive"])
