@@ -67,17 +67,8 @@ def main() -> None:
     objects = [o for o in objects if o.name not in LEFT_OUT[args.scene] and OFFSET_PROPERTY not in o]
     size = args.resolution
     mask = uv_coverage(objects, "Lightmap", size, size) & ~moved
-    cache = Path(args.cache) / reference_file(args.scene, bake.export.scene, objects, size, args.reference) \
-        if args.cache else None
-    if cache is not None and cache.exists():
-        stored = np.load(cache)
-        first, second, reference_seconds = stored["first"], stored["second"], float(stored["seconds"])
-    else:
-        first, reference_seconds = cycles_lightmap_bake(objects, "Lightmap", size, size, args.reference, seed=1)
-        second, _ = cycles_lightmap_bake(objects, "Lightmap", size, size, args.reference, seed=2)
-        if cache is not None:
-            cache.parent.mkdir(parents=True, exist_ok=True)
-            np.savez(cache, first=first, second=second, seconds=reference_seconds)
+    first, second, reference_seconds = reference_bakes(args.scene, bake.export.scene, objects, size, size,
+                                                       args.reference, args.cache)
     reference = 0.5 * (first + second)
     variance = float(np.mean((first[mask] - second[mask]) ** 2) / 4.0)  # of the mean of two bakes
     rows = []
@@ -114,7 +105,24 @@ def print_against_cycles(cycles_rows: list[tuple[str, float, float]], ours: dict
     print("* extrapolated below the ladder along its two lowest-error points")
 
 
-def reference_file(name: str, scene, objects, size: int, samples: int) -> str:
+def reference_bakes(name: str, scene, objects, width: int, height: int, samples: int,
+                    cache: str) -> tuple[np.ndarray, np.ndarray, float]:
+    """Cycles' two reference bakes (seeds 1 and 2) on the objects' Lightmap UV map and the seconds one took, read
+    from the ``cache`` folder when an earlier run baked the same (``''``: always bake)."""
+    from blender_setup import cycles_lightmap_bake
+    path = Path(cache) / reference_file(name, scene, objects, f"{width}x{height}", samples) if cache else None
+    if path is not None and path.exists():
+        stored = np.load(path)
+        return stored["first"], stored["second"], float(stored["seconds"])
+    first, seconds = cycles_lightmap_bake(objects, "Lightmap", width, height, samples, seed=1)
+    second, _ = cycles_lightmap_bake(objects, "Lightmap", width, height, samples, seed=2)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(path, first=first, second=second, seconds=seconds)
+    return first, second, seconds
+
+
+def reference_file(name: str, scene, objects, size: str, samples: int) -> str:
     """A reference bake's file name, keyed by what it depends on: Blender's version, the exported scene
     (geometry, materials, lights, world) and the UV map it is baked on."""
     import bpy

@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/production_scene.py [--triangles 250000,500000,1000000]
         [--qualities draft,medium] [--targets lightmap,vertex_colors] [--compare-triangles 250000]
-        [--compare-density 6] [--samples 4,16,64] [--reference 256]
+        [--compare-density 6] [--samples 4,16,64] [--reference 256] [--cache benchmarks/cache]
 
 Part 1, scaling: sample_blends/courtyard.py makes the courtyard at each triangle count (same layout, finer
 tessellation and more props); each quality and target is baked by the command line in a child process, as a user
@@ -12,7 +12,8 @@ pieces (input triangles after clipping), elements, tree nodes and links, and the
 Part 2, error: at ``--compare-triangles``, each quality bakes a lightmap at ``--compare-density`` texels per metre
 (one density gives every quality the same UV layout), then Cycles' Diffuse pass (Direct + Indirect, no Color) is
 baked on that UV map: twice at ``--reference`` samples (seeds 1 and 2; their mean is the reference and their
-difference its noise, removed from every squared error) and once at each of ``--samples``. The error is the
+difference its noise, removed from every squared error; kept in ``--cache`` for the next run on the same scene
+and UV map) and once at each of ``--samples``. The error is the
 relative RMSE over the texels Cycles bakes, as in benchmarks/lightmap_vs_cycles.py (linked duplicates past the
 first are left out: Cycles bakes a shared mesh's UV map once; so are texels pushed out of closed geometry). The
 table is printed twice: over all those texels, and without those on coplanar overlaps, where Cycles bakes two
@@ -82,10 +83,10 @@ def scaling_table(counts: list[int], qualities: list[str], targets: list[str], f
 
 
 def error_table(count: int, qualities: list[str], density: float, samples: list[int], reference_samples: int,
-                folder: Path) -> None:
+                folder: Path, cache: str) -> None:
     import bpy
     from blender_setup import cycles_lightmap_bake, lightmap_bake, load_extension, uv_coverage
-    from lightmap_vs_cycles import print_against_cycles, relative_rmse
+    from lightmap_vs_cycles import print_against_cycles, reference_bakes, relative_rmse
     package = load_extension()
     package.register()
     from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY
@@ -105,8 +106,8 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
     objects = [bpy.data.objects[entry["name"]] for entry in report["objects"] if entry["uv_map"]]
     objects = [obj for obj in objects if OFFSET_PROPERTY not in obj]
     mask = uv_coverage(objects, "Lightmap", width, height) & ~moved
-    first, reference_seconds = cycles_lightmap_bake(objects, "Lightmap", width, height, reference_samples, seed=1)
-    second, _ = cycles_lightmap_bake(objects, "Lightmap", width, height, reference_samples, seed=2)
+    first, second, reference_seconds = reference_bakes(f"courtyard_{count}", bake.export.scene, objects, width,
+                                                       height, reference_samples, cache)
     reference = 0.5 * (first + second)
     ladder = [(spp,) + cycles_lightmap_bake(objects, "Lightmap", width, height, spp, seed=3) for spp in samples]
     for compared, which in ((mask, "all texels"), (mask & ~overlap, "without texels on coplanar overlaps "
@@ -147,6 +148,8 @@ def main() -> None:
     parser.add_argument("--samples", default="4,16,64")
     parser.add_argument("--reference", type=int, default=256)
     parser.add_argument("--folder", help="where scenes and bakes go (default: a new temporary folder)")
+    parser.add_argument("--cache", default=str(ROOT / "benchmarks" / "cache"),
+                        help="folder keeping the reference bakes between runs ('' to recompute)")
     args = parser.parse_args()
     folder = Path(args.folder or tempfile.mkdtemp())
     folder.mkdir(parents=True, exist_ok=True)
@@ -155,7 +158,7 @@ def main() -> None:
         scaling_table([int(n) for n in args.triangles.split(",")], qualities, args.targets.split(","), folder)
     if args.compare_triangles:
         error_table(args.compare_triangles, qualities, args.compare_density,
-                    [int(n) for n in args.samples.split(",")], args.reference, folder)
+                    [int(n) for n in args.samples.split(",")], args.reference, folder, args.cache)
     sys.stdout.flush()
     os._exit(0)  # bpy 4.2 crashes at interpreter teardown
 
