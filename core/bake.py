@@ -112,7 +112,7 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
     """Solve the scene's diffuse light; raises BakeCancelled if ``cancelled()`` turns True."""
     emissive = scene.emitted_radiance.max(axis=1)[scene.material_index] > 0
     check_bake_memory(scene.triangles[~scene.casts_only], scene.triangles[emissive], settings.element_size_m,
-                      settings.patch_size_m, settings.max_memory_gb or default_limit_gb())
+                      settings.patch_size_m, settings.max_memory_gb or default_limit_gb(), settings.threads)
     timer = Timer()
     offset = RAY_OFFSET_FRACTION * scene.size_m
     if first_use_message():  # Warp compiles its kernels on a machine's first bake: say so before the wait

@@ -19,6 +19,7 @@ import numpy as np
 from .clusters import SMALL_PIECE, normal_bins
 from .errors import SceneError
 from .geometry import triangle_unit_normals
+from .parallel import steps_in_flight
 
 DEFAULT_SHARE = 0.75
 GIB = 2 ** 30
@@ -28,8 +29,10 @@ FIXED_BYTES = 500 * 2 ** 20     # interpreter, Blender or numpy, Embree
 BYTES_PER_TRIANGLE = 1_500      # the exported scene, the Embree BVH, per-triangle tests
 BYTES_PER_PIECE = 700           # the element mesh's nodes and the clustering's per-piece arrays
 BYTES_PER_SOLVED_SIDE = 2_000   # what the solution keeps per element side (points, light, interpolation)
-LINK_WORKSPACE = 800 * 2 ** 20  # candidate links being weighed at once (a fixed number of pairs per step)
-BYTES_PER_LINKED_SIDE = 10_000  # about 125 links of 38 bytes, twice while they are refined
+LINK_WORKSPACE = 800 * 2 ** 20  # candidate links being weighed by one step (a fixed number of pairs), per step
+                                # in flight (core.parallel)
+BYTES_PER_LINKED_SIDE = 30_000  # Medium: about 235 links per side, twice while they are refined, and their
+                                # sparse transfer in the solve
 BYTES_PER_TEXEL = 3_000         # a page's covered texels while lit: points, footprints, rays, interpolation
 BYTES_PER_IMAGE_TEXEL = 16      # every page's float32 light and masks, kept until written
 COARSENING = 1.25               # each adaptation makes elements this much larger
@@ -109,25 +112,25 @@ def element_count(triangles_m: np.ndarray, element_size_m: float) -> int:
 
 
 def estimate_bake(triangles_m: np.ndarray, element_size_m: float, covered_texels: int = 0,
-                  image_texels: int = 0) -> MemoryEstimate:
-    """What a hierarchical bake of these (T, 3, 3) receiving triangles needs, with lightmap pages lit one at a
-    time (``covered_texels``: the largest page's texels that charts cover) whose images (``image_texels`` in all)
-    are kept until they are written."""
+                  image_texels: int = 0, threads: int = 0) -> MemoryEstimate:
+    """What a hierarchical bake of these (T, 3, 3) receiving triangles needs on ``threads`` threads (0: every
+    core), with lightmap pages lit one at a time (``covered_texels``: the largest page's texels that charts
+    cover) whose images (``image_texels`` in all) are kept until they are written."""
     pieces = int(piece_counts(triangles_m, element_size_m).sum())
     sides = 2 * element_count(triangles_m, element_size_m)
     persistent = (FIXED_BYTES + BYTES_PER_TRIANGLE * len(triangles_m) + BYTES_PER_PIECE * pieces +
                   BYTES_PER_SOLVED_SIDE * sides + BYTES_PER_IMAGE_TEXEL * image_texels)
-    return MemoryEstimate({"solve": LINK_WORKSPACE + BYTES_PER_LINKED_SIDE * sides,
+    return MemoryEstimate({"solve": LINK_WORKSPACE * steps_in_flight(threads) + BYTES_PER_LINKED_SIDE * sides,
                            "lightmap texels": BYTES_PER_TEXEL * covered_texels}, persistent)
 
 
 def fit_to_memory(triangles_m: np.ndarray, element_size_m: float, limit_gb: float, covered_texels: int = 0,
-                  image_texels: int = 0) -> tuple[float, MemoryEstimate]:
+                  image_texels: int = 0, threads: int = 0) -> tuple[float, MemoryEstimate]:
     """The element size (the one asked for, or up to MOST_COARSENING times larger) at which the estimate fits in
     ``limit_gb``; raises MemoryLimitError naming the figures and the settings to change when none does."""
     size = element_size_m
     while True:
-        estimate = estimate_bake(triangles_m, size, covered_texels, image_texels)
+        estimate = estimate_bake(triangles_m, size, covered_texels, image_texels, threads)
         if estimate.peak_bytes <= limit_gb * GIB:
             return size, estimate
         if size * COARSENING > MOST_COARSENING * element_size_m:
@@ -141,10 +144,10 @@ def fit_to_memory(triangles_m: np.ndarray, element_size_m: float, limit_gb: floa
 
 
 def check_bake_memory(receivers_m: np.ndarray, emitters_m: np.ndarray, element_size_m: float,
-                      patch_size_m: float, limit_gb: float) -> MemoryEstimate:
+                      patch_size_m: float, limit_gb: float, threads: int = 0) -> MemoryEstimate:
     """The estimate of a core bake of these receiving and emitting (T, 3, 3) triangles; MemoryLimitError naming
     the setting to change when it is over ``limit_gb`` (a core caller that did not fit its settings first)."""
-    estimate = estimate_bake(receivers_m, element_size_m)
+    estimate = estimate_bake(receivers_m, element_size_m, threads=threads)
     emitter_pieces = int(piece_counts(emitters_m, patch_size_m).sum())
     estimate = MemoryEstimate(estimate.steps, estimate.persistent + BYTES_PER_PIECE * emitter_pieces)
     if estimate.peak_bytes > limit_gb * GIB:
