@@ -29,10 +29,12 @@ def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, norma
     their smooth surface, as Cycles does; the world's rays, which Cycles mostly traces as BSDF samples, start from
     the points."""
     irradiance = np.zeros((len(points), 3))
-    for index, light in enumerate(scene.lights):
+    for index, (light, factor) in enumerate(zip(scene.lights, scene.light_factor)):
+        if factor == 0:
+            continue
         sampler = _SAMPLERS[type(light)]
         scalar = sampler(light, caster, points, normals, offset_m, samples_per_edge, seed + 7919 * index, lift)
-        irradiance += scalar[:, None] * np.asarray(light.color, dtype=np.float64)
+        irradiance += scalar[:, None] * (factor * np.asarray(light.color, dtype=np.float64))
     if world:
         irradiance += _world(scene, caster, points, normals, offset_m, samples_per_edge, seed)
     return irradiance
@@ -44,7 +46,9 @@ def one_light_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, no
     shadow ray to one light, chosen in proportion to the lights' unshadowed irradiance there (a share
     UNIFORM_CHOICE of the choices uniform, so that no light that reaches a point is left out), and divides by the
     chance of that choice (light selection: Shirley, Wang & Zimmerman 1996). For final-gather hits, where the 64
-    rays of a texel average the choices out, and a scene's many lamps then cost one shadow ray, not one each."""
+    rays of a texel average the choices out, and a scene's many lamps then cost one shadow ray, not one each. The
+    choice ignores the scene's ``light_factor``, which scales what the chosen light brings: the samples of a light
+    group's scene (core.scene.Scene.lit_by) are the whole scene's, each landing in its light's group."""
     irradiance = np.zeros((len(points), 3))
     lights = scene.lights
     if lights and len(points):
@@ -56,11 +60,13 @@ def one_light_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, no
         chance = UNIFORM_CHOICE / len(lights) + (1.0 - UNIFORM_CHOICE) * share
         draw = np.random.default_rng(seed).random(len(points))
         pick = np.minimum((draw[:, None] > np.cumsum(chance, axis=1)).sum(axis=1), len(lights) - 1)
-        for index, light in enumerate(lights):
+        for index, (light, factor) in enumerate(zip(lights, scene.light_factor)):
             rows = np.flatnonzero(pick == index)
+            if factor == 0 or len(rows) == 0:
+                continue
             scalar = _SAMPLERS[type(light)](light, caster, points[rows], normals[rows], offset_m, 1,
                                             seed + 7919 * index, None)
-            irradiance[rows] += (scalar / chance[rows, index])[:, None] * colours[index]
+            irradiance[rows] += (scalar / chance[rows, index])[:, None] * (factor * colours[index])
     if world:
         irradiance += _world(scene, caster, points, normals, offset_m, 1, seed)
     return irradiance

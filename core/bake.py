@@ -12,13 +12,13 @@ call. Everything is deterministic for a given scene, settings and seed. Two fami
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
 from . import adaptive
 from .cluster_tree import build_tree
-from .clusters import cluster_pieces
+from .clusters import cluster_pieces, emitted_exitance
 from .direct_light import DirectLighting
 from .errors import SettingsError
 from .hierarchical import (HierarchicalState, Receivers, live_side_test, node_deviation, node_radiosity,
@@ -173,7 +173,7 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     exposed, sending = exposed_samples.sum(axis=2), source_samples.sum(axis=2)
     reflectance = np.minimum(clusters.reflectance, MAX_REFLECTANCE)
     state = HierarchicalState(clusters, tree, receivers, links, exposed, sending, reflectance, direct,
-                              direct.copy())
+                              direct.copy(), exposed_samples=exposed_samples)
     rough = max(settings.residual_threshold, ROUGH_RESIDUAL)  # enough to tell where clusters' radiosity varies
     solve(state, rough, settings.max_shots, lambda: caster.rays_cast, progress, cancelled)
     timer.lap("solve")
@@ -187,15 +187,60 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     timer.lap("link refinement")
     solve(state, settings.residual_threshold, settings.max_shots, lambda: caster.rays_cast, progress, cancelled)
     timer.lap("solve")
-    point = np.repeat(clusters.centroid[:, None], 2, axis=1)
-    point[receivers.element, receivers.side] = receivers.point
-    reach = np.maximum(np.linalg.norm(clusters.high - clusters.low, axis=1), size)
-    elements = SolvedElements(node_element, point, clusters.normal[:, None, :] * [[1.0], [-1.0]], exposed,
-                              state.irradiance, direct, reflectance, clusters.emitted_exitance, clusters.area_m2,
-                              reach, state.reflected_irradiance())
     counts = {"pieces": len(clusters.piece_node), "element_sides": len(receivers.element),
               "nodes": tree.node_count, "links": state.links.count, "link_bytes": state.links.nbytes}
-    return mesh, elements, state, state.ambient(), counts
+    return mesh, _solved_elements(state, node_element, size), state, state.ambient(), counts
+
+
+def _solved_elements(state: HierarchicalState, node_element: np.ndarray, element_size_m: float) -> SolvedElements:
+    """The hierarchical solve's elements (face clusters, both sides) as SolvedElements."""
+    clusters, receivers = state.clusters, state.receivers
+    point = np.repeat(clusters.centroid[:, None], 2, axis=1)
+    point[receivers.element, receivers.side] = receivers.point
+    reach = np.maximum(np.linalg.norm(clusters.high - clusters.low, axis=1), element_size_m)
+    return SolvedElements(node_element, point, clusters.normal[:, None, :] * [[1.0], [-1.0]], state.exposed_m2,
+                          state.irradiance, state.direct_irradiance, state.reflectance, clusters.emitted_exitance,
+                          clusters.area_m2, reach, state.reflected_irradiance())
+
+
+def bake_light_groups(solution: Solution, settings: BakeSettings = BakeSettings(), progress: Progress = no_progress,
+                      cancelled=never_cancelled) -> dict[str, Solution]:
+    """The light of each light group of ``solution``'s scene apart (core.scene.Scene.light_groups; "" the
+    ungrouped): a Solution per group whose light sums to the scene's, since light is linear in emission (radiosity
+    paper, section 4: B = (I - rho F)^-1 E). The hierarchical solver's elements, cluster tree and refined links,
+    the transport that costs the rays, serve every group: each group has its own direct light and solve (Scene.lit_by).
+    The classic solvers, for small scenes, bake each group anew."""
+    groups = {}
+    for group in solution.scene.light_groups:
+        scene = solution.scene.lit_by(group)
+        progress(0.0, f"Light group '{group or 'ungrouped'}'")
+        if settings.solver == "hierarchical":
+            groups[group] = _relit(solution, scene, settings, progress, cancelled)
+        else:
+            groups[group] = bake(scene, settings, progress, cancelled)
+    return groups
+
+
+def _relit(solution: Solution, scene: Scene, settings: BakeSettings, progress, cancelled) -> Solution:
+    """``solution``'s hierarchical elements and links lit by ``scene``'s lights (the same surfaces): its direct light
+    on the element sides, then the Jacobi solve from it."""
+    timer, full, caster, offset = Timer(), solution.state, solution.caster, solution.offset_m
+    clusters = replace(full.clusters, emitted_exitance=emitted_exitance(full.clusters, solution.mesh, scene))
+    receivers = full.receivers
+    direct = np.zeros((clusters.count, 2, 3))
+    direct[receivers.element, receivers.side] = side_direct_irradiance(
+        scene, clusters, caster, full.exposed_samples, receivers.element, receivers.side, offset,
+        settings.light_samples_per_edge, settings.seed)
+    timer.lap("direct light")
+    state = HierarchicalState(clusters, full.tree, receivers, full.links, full.exposed_m2, full.sending_m2,
+                              full.reflectance, direct, direct.copy(), exposed_samples=full.exposed_samples)
+    solve(state, settings.residual_threshold, settings.max_shots, lambda: caster.rays_cast, progress, cancelled,
+          full.sampled_scale)
+    timer.lap("solve")
+    elements = _solved_elements(state, solution.elements.node_element, settings.element_size_m)
+    direct_lighting = DirectLighting(scene, caster, settings.patch_size_m, offset, settings.light_samples_per_edge,
+                                     settings.seed)
+    return solution.relit(scene, elements, direct_lighting, state, timer.laps)
 
 
 def _classic(scene, settings, caster, offset, timer, progress, cancelled):

@@ -17,7 +17,7 @@ centroid, normal, reflectance and emission of its pieces.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -99,8 +99,19 @@ def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_s
         if not blocked.any():
             break
         element = np.unique(np.stack([element, blocked], axis=1), axis=0, return_inverse=True)[1].ravel()
-    emission = np.pi * scene.emitted_radiance[scene.material_index[mesh.triangle_scene[mesh.node_triangle[nodes]]]]
-    return _clusters(nodes, element, corners, area, normal, centroid, piece_reflectance, emission)
+    clusters = _clusters(nodes, element, corners, area, normal, centroid, piece_reflectance)
+    return replace(clusters, emitted_exitance=emitted_exitance(clusters, mesh, scene))
+
+
+def emitted_exitance(clusters: FaceClusters, mesh: ElementMesh, scene: Scene) -> np.ndarray:
+    """(n, 3) emitted exitance pi L of each element, W m^-2: the area-weighted mean of its pieces' materials' in
+    ``scene`` (a light group's share of the light, core.scene.Scene.lit_by, on the elements of the whole scene)."""
+    nodes = clusters.piece_node
+    exitance = np.pi * scene.emitted_radiance[scene.material_index[mesh.triangle_scene[mesh.node_triangle[nodes]]]]
+    area = triangle_areas(mesh.corners(nodes))
+    total = np.maximum(np.bincount(clusters.piece_element, weights=area, minlength=clusters.count), 1e-300)
+    return np.stack([np.bincount(clusters.piece_element, weights=area * exitance[:, k], minlength=clusters.count)
+                     for k in range(3)], axis=1) / total[:, None]
 
 
 def _blocked_from_centre(caster: RayCaster, element: np.ndarray, centroid: np.ndarray, normal: np.ndarray,
@@ -126,7 +137,8 @@ def _blocked_from_centre(caster: RayCaster, element: np.ndarray, centroid: np.nd
     return blocked
 
 
-def _clusters(nodes, element, corners, area, normal, centroid, reflectance, emission) -> FaceClusters:
+def _clusters(nodes, element, corners, area, normal, centroid, reflectance) -> FaceClusters:
+    """The elements' geometry and reflectance; no emission yet (``emitted_exitance``)."""
     count = int(element.max()) + 1 if len(element) else 0
     total = np.bincount(element, weights=area, minlength=count)
     safe = np.maximum(total, 1e-300)[:, None]
@@ -145,7 +157,7 @@ def _clusters(nodes, element, corners, area, normal, centroid, reflectance, emis
     polygon[element[single]] = corners[single]
     point, point_normal, piece = _stratified_samples(element, corners, area, normal, count)
     return FaceClusters(nodes, element, total, element_centroid, element_normal, low, high, mean(reflectance),
-                        mean(emission), point, point_normal, piece, polygon)
+                        np.zeros((count, 3)), point, point_normal, piece, polygon)
 
 
 # A point in each of the four triangles of a 2 x 2 cut of a triangle (core.mesh.CHILDREN), as barycentric weights of

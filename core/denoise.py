@@ -32,13 +32,17 @@ GRID_SLACK_TEXELS = 1.5
 
 
 def denoise_gathered(pixel: np.ndarray, width: int, height: int, points: np.ndarray, normals: np.ndarray,
-                     texel_m: np.ndarray, light: np.ndarray, variance: np.ndarray) -> np.ndarray:
+                     texel_m: np.ndarray, light: np.ndarray, variance: np.ndarray,
+                     parts: np.ndarray | None = None) -> np.ndarray:
     """(m, 3) filtered ``light`` of m texels at flat ``pixel`` indices (y * width + x) of a page, with their (m, 3)
-    world ``points``, unit ``normals``, (m,) edge length ``texel_m`` and the (m, 3) ``variance`` of each mean."""
+    world ``points``, unit ``normals``, (m,) edge length ``texel_m`` and the (m, 3) ``variance`` of each mean.
+    With ``parts`` (G, m, 3), parts of the light that sum to it (light groups), the parts are filtered instead, with
+    the weights ``light`` gives: a linear filter, so that they still sum to the filtered light."""
     texel_at = np.full(width * height, -1, dtype=np.int64)
     texel_at[pixel] = np.arange(len(pixel))
     x, y = pixel % width, pixel // width
-    total, weight = light.copy(), np.ones(len(pixel))
+    filtered = light if parts is None else parts
+    total, weight = filtered.copy(), np.ones(len(pixel))
     for dy in range(-RADIUS_TEXELS, RADIUS_TEXELS + 1):
         for dx in range(-RADIUS_TEXELS, RADIUS_TEXELS + 1):  # one offset of the window at a time over all texels
             if dx == dy == 0:
@@ -50,7 +54,7 @@ def denoise_gathered(pixel: np.ndarray, width: int, height: int, points: np.ndar
                                  texel_m[texel] * (np.hypot(dx, dy) + GRID_SLACK_TEXELS), texel_m[texel])
             texel, neighbour = texel[same], neighbour[same]
             w = _noise_weight(light[texel], variance[texel], light[neighbour], variance[neighbour])
-            total[texel] += w[:, None] * light[neighbour]
+            total[..., texel, :] += w[:, None] * filtered[..., neighbour, :]
             weight[texel] += w
     return total / weight[:, None]
 

@@ -73,21 +73,34 @@ def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.nd
     element: close by, in a concave corner, the element's one value is not the light of the spot the ray meets.
     Chunks of at most RAYS_PER_CHUNK rays (bounded memory), ``workers`` of them side by side (core.parallel),
     each seeded by its first point."""
+    light, variance = final_gather_parts([solution], caster, points, normals, samples_per_edge, offset_m, seed,
+                                         face_normals, near_m, near_samples_per_edge, workers)
+    return light[0], variance
+
+
+def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
+                       samples_per_edge: int, offset_m: float, seed: int, face_normals: np.ndarray | None = None,
+                       near_m: float = 0.0, near_samples_per_edge: int = 0,
+                       workers: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """``final_gather`` of several solutions of the same surfaces, lit by parts of the light (light groups,
+    core.bake.bake_light_groups), along the same rays: (G, m, 3) each one's light, and the (m, 3) variance of the
+    mean of their sum (the rays' sample variance of the summed light over their count)."""
     rays = samples_per_edge ** 2
     step = max(1, RAYS_PER_CHUNK // rays)
     faces = normals if face_normals is None else face_normals
-    parts = [slice(start, min(start + step, len(points))) for start in range(0, len(points), step)]
-    gathered = lambda part: _gather_chunk(solution, caster, points[part], normals[part], faces[part],
-                                          samples_per_edge, offset_m, seed + part.start, near_m,
-                                          near_samples_per_edge)
-    light, variance = np.zeros((len(points), 3)), np.zeros((len(points), 3))
-    for part, (part_light, part_variance) in zip(parts, ordered_map(gathered, parts, workers)):
-        light[part], variance[part] = part_light, part_variance
+    chunks = [slice(start, min(start + step, len(points))) for start in range(0, len(points), step)]
+    gathered = lambda chunk: _gather_chunk(solutions, caster, points[chunk], normals[chunk], faces[chunk],
+                                           samples_per_edge, offset_m, seed + chunk.start, near_m,
+                                           near_samples_per_edge)
+    light, variance = np.zeros((len(solutions), len(points), 3)), np.zeros((len(points), 3))
+    for chunk, (chunk_light, chunk_variance) in zip(chunks, ordered_map(gathered, chunks, workers)):
+        light[:, chunk], variance[chunk] = chunk_light, chunk_variance
     return light, variance
 
 
-def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_edge, offset_m, seed, near_m,
+def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_edge, offset_m, seed, near_m,
                   near_samples_per_edge):
+    solution = solutions[0]  # the surfaces are the same in each
     count, rays = len(points), samples_per_edge ** 2
     local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
     directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals)).reshape(-1, 3)
@@ -103,13 +116,13 @@ def _gather_chunk(solution, caster, points, normals, face_normals, samples_per_e
     if near_m > 0 and near_samples_per_edge > 0:
         hit_points = np.einsum("mc,mck->mk", bary[landed], triangles[hit[landed]])
         near = lengths(hit_points - origins[landed]) < near_m
-    radiosity = np.zeros((len(hit), 3))
-    far = landed[~near]
-    radiosity[far] = solution.reflected_radiosity(hit[far], bary[far], side[~near], seed)
-    close = landed[near]
-    if len(close):
-        radiosity[close] = solution.reflected_radiosity(hit[close], bary[close], side[near], seed + len(hit),
-                                                        gather_samples_per_edge=near_samples_per_edge)
-    radiosity[(hit < 0) & above] = np.pi * np.asarray(solution.scene.world.radiance, dtype=np.float64)
-    per_ray = radiosity.reshape(count, rays, 3) / np.pi
-    return per_ray.mean(axis=1), per_ray.var(axis=1) / rays
+    far, close = landed[~near], landed[near]
+    radiosity = np.zeros((len(solutions), len(hit), 3))
+    for part, lit in zip(radiosity, solutions):
+        part[far] = lit.reflected_radiosity(hit[far], bary[far], side[~near], seed)
+        if len(close):
+            part[close] = lit.reflected_radiosity(hit[close], bary[close], side[near], seed + len(hit),
+                                                  gather_samples_per_edge=near_samples_per_edge)
+        part[(hit < 0) & above] = np.pi * np.asarray(lit.scene.world.radiance, dtype=np.float64)
+    per_ray = radiosity.reshape(len(solutions), count, rays, 3) / np.pi
+    return per_ray.mean(axis=2), per_ray.sum(axis=0).var(axis=1) / rays

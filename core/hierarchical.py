@@ -39,6 +39,7 @@ from .solver import ConvergenceStep
 from .surface_probes import inside_closed_geometry
 
 SIDES = np.array([1.0, -1.0])  # front, back: the side's normal is SIDES[side] x the element's normal
+EMITTED, REFLECTED = 0, 1  # the parts of the light the links transfer, each with its energy balance
 
 
 def sample_exposure(clusters: FaceClusters, mesh: ElementMesh, caster: RayCaster, scene: Scene,
@@ -122,7 +123,10 @@ class HierarchicalState:
     the solve's history, the enclosure (the share of the light leaving the receivers that lands on the scene, from
     the links' covered shares), the irradiance each receiver last gathered from reflected light and what the last
     iteration added to it (R, 3), the change in radiated power (3,) W of the last iteration and its ratio to the
-    one before (the iteration's decay per channel)."""
+    one before (the iteration's decay per channel); per side (n, 2, SAMPLES) the area each element sample stands
+    for (sample_exposure), where the direct light of another lighting of the same elements is measured; the
+    energy balance's scales of the sampled links' transfer (2, 3), of the emitted and of the reflected light, as
+    last measured (_BalancedTransfer)."""
 
     clusters: FaceClusters
     tree: ClusterTree
@@ -139,6 +143,8 @@ class HierarchicalState:
     increment: np.ndarray | None = None
     power_change_w: np.ndarray | None = None
     decay: np.ndarray | None = None
+    exposed_samples: np.ndarray | None = None
+    sampled_scale: np.ndarray | None = None
 
     @property
     def emission(self) -> np.ndarray:
@@ -204,24 +210,29 @@ def node_deviation(tree: ClusterTree, radiosity: np.ndarray, exposed_m2: np.ndar
 
 
 def solve(state: HierarchicalState, residual_threshold: float, max_iterations: int,
-          rays=lambda: 0, progress: Progress = no_progress, cancelled=never_cancelled) -> HierarchicalState:
+          rays=lambda: 0, progress: Progress = no_progress, cancelled=never_cancelled,
+          sampled_scale: np.ndarray | None = None) -> HierarchicalState:
     """Jacobi iterations, from the state's irradiance, until the change in radiated power is below
     ``residual_threshold`` of the injected power (emission plus first reflection of direct light). Emitted and
     reflected radiosity are gathered apart (_BalancedTransfer): the light straight from emissive surfaces once,
-    the reflected light (``gathered``: the indirect light outputs interpolate) in every iteration."""
+    the reflected light (``gathered``: the indirect light outputs interpolate) in every iteration. With
+    ``sampled_scale`` (another solve's, on the same links) the balance keeps that scale: the transfer is then one
+    linear operator, and the solves of light groups sum to the solve of their sum."""
     started = time.perf_counter()
     receivers, links = state.receivers, state.links
     area = state.exposed_m2[receivers.element, receivers.side][:, None]
     injected = float(((state.emission + state.reflectance[:, None, :] * state.direct_irradiance) *
                       state.exposed_m2[..., None]).sum())
     first = state.history[-1].shots + 1 if state.history else 1
-    transfer = _BalancedTransfer(state, links.transfer(links.exact), links.transfer(~links.exact), area)
-    emitted = transfer.gather(state.emission)  # the same in every iteration: light straight from emitters
+    fixed = sampled_scale is not None
+    state.sampled_scale = np.array(sampled_scale, dtype=np.float64) if fixed else np.ones((2, 3))
+    transfer = _BalancedTransfer(state, links.transfer(links.exact), links.transfer(~links.exact), area, fixed)
+    emitted = transfer.gather(state.emission, EMITTED)  # the same in every iteration: light straight from emitters
     radiosity = state.radiosity
     for iteration in range(first, first + max_iterations):
         if cancelled():
             raise BakeCancelled("Bake cancelled during the radiosity solve.")
-        reflected = transfer.gather(radiosity - state.emission)
+        reflected = transfer.gather(radiosity - state.emission, REFLECTED)
         state.irradiance = state.direct_irradiance.copy()
         state.irradiance[receivers.element, receivers.side] += emitted + reflected
         state.increment = reflected - (0.0 if state.gathered is None else state.gathered)
@@ -256,18 +267,23 @@ class _BalancedTransfer:
     closed-form indirect light; exact links (to one-piece elements) are left as they are. Why the balance is
     against the links' own factors and not a ray-measured covered share: docs/benchmarks.md, History."""
 
-    def __init__(self, state: HierarchicalState, exact: Transfer, sampled: Transfer, area: np.ndarray):
-        self.state, self.exact, self.sampled, self.area = state, exact, sampled, area
+    def __init__(self, state: HierarchicalState, exact: Transfer, sampled: Transfer, area: np.ndarray,
+                 fixed: bool):
+        self.state, self.exact, self.sampled, self.area, self.fixed = state, exact, sampled, area, fixed
         links = state.links
         self.linked = np.bincount(links.receiver, weights=np.einsum("lc->l", links.factor),
                                   minlength=len(links.covered))
 
-    def gather(self, radiosity: np.ndarray) -> np.ndarray:
+    def gather(self, radiosity: np.ndarray, part: int) -> np.ndarray:
+        """The receivers' irradiance (R, 3) from ``radiosity``: emitted (``part`` 0) or reflected (1)."""
         state, receivers = self.state, self.state.receivers
         count = len(receivers.element)
         means = node_radiosity(state.tree, radiosity, state.sending_m2)
         exact, sampled = self.exact.gather(means, count), self.sampled.gather(means, count)
+        if self.fixed:
+            return exact + sampled * state.sampled_scale[part]
         sent = (radiosity[receivers.element, receivers.side] * self.area * self.linked[:, None]).sum(axis=0)
         received = (sampled * self.area).sum(axis=0)
         scale = np.clip((sent - (exact * self.area).sum(axis=0)) / np.maximum(received, 1e-300), 0.5, 2.0)
-        return exact + sampled * np.where(received > 0, scale, 1.0)
+        state.sampled_scale[part] = np.where(received > 0, scale, 1.0)
+        return exact + sampled * state.sampled_scale[part]

@@ -14,7 +14,7 @@ import numpy as np
 
 from .denoise import denoise_gathered
 from .errors import BakeCancelled, SettingsError
-from .gather import final_gather, gather_pays
+from .gather import final_gather_parts, gather_pays
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import triangle_areas
@@ -63,7 +63,8 @@ class LightmapSettings:
 class Lightmap:
     """light: (height, width, 3) float32; covered: (height, width) texels a triangle covers (before dilation);
     moved: (height, width) texels whose sample point was inside closed geometry and was pushed out of it;
-    indirect: the method that lit them ("gather" or "interpolate"); seconds: time per phase."""
+    indirect: the method that lit them ("gather" or "interpolate"); seconds: time per phase; groups: each light
+    group's own light, like ``light`` (which is then their sum), when the page was baked by groups."""
 
     light: np.ndarray
     covered: np.ndarray
@@ -71,25 +72,27 @@ class Lightmap:
     texel_count: int
     indirect: str
     seconds: dict[str, float] = field(default_factory=dict)
+    groups: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass
 class TexelLight:
-    """The light of a page's texels (or of one chunk's), in parts, all (m, 3) irradiance / pi: direct (with the
-    world's light when it is not gathered), indirect, and the variance of the gathered indirect light's mean (0
-    where it is interpolated)."""
+    """The light of a page's texels (or of one chunk's), irradiance / pi, for G lightings of the scene (1, or its
+    light groups): direct (G, m, 3) (with the world's light when it is not gathered), indirect (G, m, 3), and the
+    (m, 3) variance of the mean of the gathered indirect light, summed over the lightings (0 where it is
+    interpolated)."""
 
     direct: np.ndarray
     indirect: np.ndarray
     indirect_variance: np.ndarray
 
     @classmethod
-    def zeros(cls, texel_count: int) -> TexelLight:
-        return cls(*np.zeros((3, texel_count, 3)))
+    def zeros(cls, texel_count: int, lightings: int = 1) -> TexelLight:
+        return cls(*np.zeros((2, lightings, texel_count, 3)), np.zeros((texel_count, 3)))
 
     def put(self, texels: slice, part: TexelLight) -> None:
         """Store a chunk's light at its texels."""
-        self.direct[texels], self.indirect[texels] = part.direct, part.indirect
+        self.direct[:, texels], self.indirect[:, texels] = part.direct, part.indirect
         self.indirect_variance[texels] = part.indirect_variance
 
 
@@ -139,18 +142,20 @@ class TexelPlan:
 
 def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int, height: int,
                   settings: LightmapSettings = LightmapSettings(), progress: Progress = no_progress,
-                  cancelled=never_cancelled) -> Lightmap:
+                  cancelled=never_cancelled, groups: dict | None = None) -> Lightmap:
     """Light the texels of one atlas image: ``scene_triangle`` (t,) are the solved scene triangles it holds and
     ``corner_uv`` (t, 3, 2) their UVs in [0, 1]. The three stages, ``plan_texels``, ``light_chunk`` per chunk and
-    ``finish_lightmap``, with chunks side by side (core.parallel)."""
+    ``finish_lightmap``, with chunks side by side (core.parallel). With ``groups`` (light group -> its Solution,
+    core.bake.bake_light_groups), the texels planned once are lit by each group's solution in turn: the page's
+    ``groups`` hold each group's light and its ``light`` their sum."""
     timer = Timer()
     plan = plan_texels(solution, scene_triangle, corner_uv, width, height, settings)
     timer.lap("texels")
-    light, chunk_seconds = TexelLight.zeros(plan.texel_count), {}
+    light, chunk_seconds = TexelLight.zeros(plan.texel_count, len(groups or [None])), {}
 
     def lit(index: int) -> tuple[TexelLight, dict]:
         chunk_timer = Timer()
-        return light_chunk(solution, plan, index, chunk_timer), chunk_timer.laps
+        return light_chunk(solution, plan, index, chunk_timer, groups), chunk_timer.laps
 
     # The first chunk alone builds the tables the solution computes on first use; the others then share them.
     chunks = range(plan.chunk_count)
@@ -164,7 +169,7 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
             chunk_seconds[phase] = chunk_seconds.get(phase, 0.0) + lap
         progress(chunk.stop / plan.texel_count, f"Lightmap: {chunk.stop} of {plan.texel_count} texels lit")
     timer.share(chunk_seconds)
-    return finish_lightmap(solution, plan, light, timer.laps)
+    return finish_lightmap(solution, plan, light, timer.laps, groups)
 
 
 def plan_texels(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int, height: int,
@@ -185,11 +190,13 @@ def plan_texels(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, wid
                      sub_bary, moved, contact, settings, TEXELS_PER_CHUNK)
 
 
-def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = None) -> TexelLight:
+def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = None,
+                groups: dict | None = None) -> TexelLight:
     """The direct and indirect light of the c texels of chunk ``index``: depends on the solution, the plan and the
     index only (the shadow and gather rays are seeded from the chunk's first texel, so no two chunks repeat each
     other's samples). Light arrives by the shading normal (smooth shading, as Cycles bakes); the faces' own normals
-    find buried points and the receivers to interpolate from."""
+    find buried points and the receivers to interpolate from. With ``groups`` (light group -> its Solution), the
+    light of each group, the gather's rays shared."""
     chunk, settings, timer = plan.chunk(index), plan.settings, timer or Timer()
     points, sub_points, sub_bary = plan.points[chunk], plan.sub_points[chunk], plan.sub_bary[chunk]
     normals, tri, barycentric, first_texel = plan.normals[chunk], plan.tri[chunk], plan.barycentric[chunk], chunk.start
@@ -197,53 +204,64 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     c, q = sub_points.shape[:2]
     shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
     gather = settings.indirect == "gather"  # its rays bring the world's light
-    direct = _direct_light(solution, sub_points, shading, tri, barycentric, settings.subtexel_samples_per_edge,
-                           first_texel, plan.texel_count, world=not gather)
+    lightings = list(groups.values()) if groups else [solution]
+    direct = np.stack([_footprint_mean(scene, _direct_light(
+        lit, sub_points, shading, tri, barycentric, settings.subtexel_samples_per_edge, first_texel,
+        plan.texel_count, world=not gather), tri, sub_bary) for lit in lightings])
     timer.lap("direct")
     if gather:
-        indirect, variance = final_gather(solution, solution.caster, sub_points,
-                                          scene.shading_normals(tri, barycentric), settings.gather_samples_per_edge,
-                                          solution.offset_m, settings.seed + first_texel, face_normals=normals)
+        indirect, variance = final_gather_parts(lightings, solution.caster, sub_points,
+                                                scene.shading_normals(tri, barycentric),
+                                                settings.gather_samples_per_edge, solution.offset_m,
+                                                settings.seed + first_texel, face_normals=normals)
     else:
-        indirect = _footprint_mean(scene, _interpolated_indirect(solution, tri, barycentric, points, normals,
-                                                                 sub_points), tri, sub_bary)
-        variance = np.zeros_like(indirect)
+        inside = _inside(solution, points, normals, sub_points)
+        indirect = np.stack([_footprint_mean(scene, np.where(inside[..., None], 0.0, lit.indirect_light(
+            points, normals, tri, barycentric)[:, None, :]), tri, sub_bary) for lit in lightings])
+        variance = np.zeros_like(indirect[0])
     timer.lap("indirect")
-    return TexelLight(_footprint_mean(scene, direct, tri, sub_bary), indirect, variance)
+    return TexelLight(direct, indirect, variance)
 
 
-def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict | None = None) -> Lightmap:
+def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict | None = None,
+                    groups: dict | None = None) -> Lightmap:
     """The page from its texels' light (all chunks): the gathered light denoised, contacts black, then dilated
-    into the padding."""
+    into the padding. With ``groups`` (the light groups ``light`` holds, in order), each group's page too, the
+    page being their sum (the denoiser's weights are the sum's, so that the groups sum to it)."""
     indirect = light.indirect
     if plan.settings.indirect == "gather" and plan.settings.denoise:
         indirect = denoise_gathered(plan.pixel, plan.width, plan.height, plan.points, plan.normals, plan.texel_m,
-                                    indirect, light.indirect_variance)
-    light = solution.output_light(light.direct + indirect, plan.tri)
+                                    indirect.sum(axis=0), light.indirect_variance, parts=indirect)
+    height, width = plan.height, plan.width
+    covered = np.zeros(height * width, dtype=bool)
+    covered[plan.pixel] = True
+    covered = covered.reshape(height, width)
+    pages = [_page(solution, plan, direct + part, covered) for direct, part in zip(light.direct, indirect)]
+    moved_texels = np.zeros(height * width, dtype=bool)
+    moved_texels[plan.pixel[plan.moved]] = True
+    return Lightmap(sum(pages), covered, moved_texels.reshape(height, width), plan.texel_count,
+                    plan.settings.indirect, dict(seconds or {}), dict(zip(groups, pages)) if groups else {})
+
+
+def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> np.ndarray:
+    """(height, width, 3) float32 image of the texels' (m, 3) light as outputs store it, contacts black, dilated
+    into the padding."""
+    light = solution.output_light(light, plan.tri)
     # Resting on another face, no light gets there; texels pushed out to the visible floor beside a box keep that
     # light, so bilinear filtering shows no dark rim around the box.
     light[plan.contact & ~plan.moved] = 0.0
-    height, width = plan.height, plan.width
-    image = np.zeros((height * width, 3))
+    image = np.zeros((plan.height * plan.width, 3))
     image[plan.pixel] = np.nan_to_num(light)
-    covered = np.zeros(height * width, dtype=bool)
-    covered[plan.pixel] = True
-    image, _ = dilate(image.reshape(height, width, 3), covered.reshape(height, width), plan.settings.dilation_texels)
-    moved_texels = np.zeros(height * width, dtype=bool)
-    moved_texels[plan.pixel[plan.moved]] = True
-    return Lightmap(image.astype(np.float32), covered.reshape(height, width), moved_texels.reshape(height, width),
-                    plan.texel_count, plan.settings.indirect, dict(seconds or {}))
+    image, _ = dilate(image.reshape(plan.height, plan.width, 3), covered, plan.settings.dilation_texels)
+    return image.astype(np.float32)
 
 
-def _interpolated_indirect(solution, tri, barycentric, points, normals, sub_points) -> np.ndarray:
-    """(m, q, 3) indirect light interpolated from the receivers around each texel's point, at each of its q
-    sub-texel points; 0 at points inside closed geometry (the part of a texel that reaches under a box standing on
-    the floor, where Cycles' samples see the inside of the box)."""
+def _inside(solution, points, normals, sub_points) -> np.ndarray:
+    """(m, q) sub-texel points inside closed geometry, where interpolated indirect light is 0 (the part of a
+    texel that reaches under a box standing on the floor, where Cycles' samples see the inside of the box)."""
     m, q = sub_points.shape[:2]
-    indirect = solution.indirect_light(points, normals, tri, barycentric)
-    inside = inside_closed_geometry(solution.caster, solution.scene.triangles, sub_points.reshape(-1, 3),
-                                    np.repeat(normals, q, axis=0), solution.offset_m).reshape(m, q)
-    return np.where(inside[..., None], 0.0, indirect[:, None, :])
+    return inside_closed_geometry(solution.caster, solution.scene.triangles, sub_points.reshape(-1, 3),
+                                  np.repeat(normals, q, axis=0), solution.offset_m).reshape(m, q)
 
 
 def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndarray) -> np.ndarray:

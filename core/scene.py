@@ -12,7 +12,8 @@ Validation happens once, on construction, and raises :class:`SceneError` naming 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import copy
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -35,12 +36,14 @@ class Material:
 
     ``texture`` (optional, core.texture.ReflectanceTexture): a base-colour image read through the scene's
     ``triangle_uv``; elements then reflect the image's mean over their footprint, and ``reflectance`` is the
-    image's overall mean (used where one value is needed)."""
+    image's overall mean (used where one value is needed). ``light_group``: the light group its emission belongs
+    to ("" none; see ``Scene.light_groups``)."""
 
     name: str
     reflectance: RGB = (0.8, 0.8, 0.8)
     emitted_radiance: RGB = (0.0, 0.0, 0.0)
     texture: object = None
+    light_group: str = ""
 
 
 @dataclass(frozen=True)
@@ -57,6 +60,7 @@ class PointLight:
     color: RGB = (1.0, 1.0, 1.0)
     radius_m: float = 0.0
     soft_falloff: bool = True
+    light_group: str = ""
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,7 @@ class SpotLight:
     color: RGB = (1.0, 1.0, 1.0)
     radius_m: float = 0.0
     soft_falloff: bool = True
+    light_group: str = ""
 
 
 @dataclass(frozen=True)
@@ -89,6 +94,7 @@ class SunLight:
     strength_w_m2: float
     color: RGB = (1.0, 1.0, 1.0)
     angle_rad: float = 0.0
+    light_group: str = ""
 
 
 AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
@@ -111,6 +117,7 @@ class AreaLight:
     size_y_m: float | None = None
     axis_x: tuple[float, float, float] | None = None
     color: RGB = (1.0, 1.0, 1.0)
+    light_group: str = ""
 
 
 Light = PointLight | SpotLight | SunLight | AreaLight
@@ -121,6 +128,7 @@ class World:
     """Constant background radiance (W m^-2 sr^-1): Blender's world colour x strength."""
 
     radiance: RGB = (0.0, 0.0, 0.0)
+    light_group: str = ""
 
 
 @dataclass
@@ -137,6 +145,10 @@ class Scene:
                      the triangle's own normal.
     terminator_offset: (T,) float in [0, 1], optional: the object's Cycles Shadow Terminator Geometry Offset
                      (core.terminator; 0 turns the smooth-surface start off); default 0.1, Blender's.
+    light_factor:    (L,) float >= 0, optional: each lamp's light is its power x this (default 1). A light group's
+                     scene (``lit_by``) sets the other lamps' to 0 and keeps their power, by which the lamps
+                     sampled one at a time are chosen (core.analytic_lights.one_light_irradiance): each such sample
+                     then lands in exactly one group.
 
     Zero-area triangles are dropped on construction; ``dropped_triangles`` counts them and
     ``triangle_source`` maps each kept triangle to its index in the input.
@@ -153,6 +165,7 @@ class Scene:
     triangle_uv: np.ndarray | None = None
     corner_normals: np.ndarray | None = None
     terminator_offset: np.ndarray | None = None
+    light_factor: np.ndarray | None = None
     dropped_triangles: int = field(init=False, default=0)
     triangle_source: np.ndarray = field(init=False)
 
@@ -175,6 +188,9 @@ class Scene:
         if self.terminator_offset is None:
             self.terminator_offset = np.full(count, TERMINATOR_GEOMETRY_OFFSET)
         self.terminator_offset = np.asarray(self.terminator_offset, dtype=np.float64).reshape(-1)
+        if self.light_factor is None:
+            self.light_factor = np.ones(len(self.lights))
+        self.light_factor = np.asarray(self.light_factor, dtype=np.float64).reshape(-1)
         _validate(self)
         keep = triangle_areas(self.triangles) > 0.0
         self.dropped_triangles = int(count - keep.sum())
@@ -225,6 +241,30 @@ class Scene:
     def emitted_radiance(self) -> np.ndarray:
         """(M, 3) emitted radiance per material, W m^-2 sr^-1."""
         return np.array([m.emitted_radiance for m in self.materials], dtype=np.float64).reshape(-1, 3)
+
+    @property
+    def light_groups(self) -> list[str]:
+        """The light groups that emit light here (Cycles' light groups: lamps, emissive materials and the world
+        each belong to one, or to none, ""), sorted, "" first when anything ungrouped emits."""
+        emitting = [light.light_group for light, factor in zip(self.lights, self.light_factor)
+                    if _light_power(light) * factor > 0]
+        emitting += [self.materials[m].light_group for m in np.unique(self.material_index)
+                     if max(self.materials[m].emitted_radiance) > 0]
+        if max(self.world.radiance) > 0:
+            emitting.append(self.world.light_group)
+        return sorted(set(emitting))
+
+    def lit_by(self, group: str) -> "Scene":
+        """This scene with only the light of light group ``group`` ("" the ungrouped): the others' lamps with
+        ``light_factor`` 0 (kept in place, so that every lamp keeps its shadow rays' seed and its chance of being
+        sampled), their emission and the world's dark. Light is linear in emission, so the light of the groups
+        sums to the scene's."""
+        lit = copy.copy(self)
+        lit.light_factor = np.where([light.light_group == group for light in self.lights], self.light_factor, 0.0)
+        lit.materials = [material if material.light_group == group else
+                         replace(material, emitted_radiance=(0.0, 0.0, 0.0)) for material in self.materials]
+        lit.world = self.world if self.world.light_group == group else World()
+        return lit
 
     @property
     def size_m(self) -> float:
@@ -287,9 +327,13 @@ def _validate(scene: Scene) -> None:
         _check_material(material)
     for light in scene.lights:
         _check_light(light)
+    factor = scene.light_factor
+    if factor.shape != (len(scene.lights),) or not (np.isfinite(factor) & (factor >= 0)).all():
+        raise SceneError(f"light_factor must be {len(scene.lights)} finite numbers >= 0, one per light.")
     _check_rgb(scene.world.radiance, "World background", "radiance", upper=MAX_EMISSION)
     has_emitter = any(max(scene.materials[m].emitted_radiance) > 0 for m in np.unique(scene.material_index))
-    has_light = any(_light_power(light) > 0 for light in scene.lights) or max(scene.world.radiance) > 0
+    has_light = any(_light_power(light) * factor > 0 for light, factor in zip(scene.lights, scene.light_factor)) \
+        or max(scene.world.radiance) > 0
     if not (has_emitter or has_light):
         raise SceneError("The scene has no light: add a lamp, an emissive material or a world background.")
 

@@ -86,6 +86,17 @@ class Solution:
     def residual(self) -> float:
         return self.history[-1].residual if self.history else 0.0
 
+    def relit(self, scene: Scene, elements: SolvedElements, direct: DirectLighting, state,
+              seconds: dict[str, float]) -> "Solution":
+        """The same surfaces and receivers lit by ``scene``'s lights instead (a light group's share, core.bake
+        .bake_light_groups): ``elements`` and ``state`` from that lighting's solve; the tables of the geometry
+        are shared."""
+        lit = Solution(scene, self.mesh, elements, direct, self.caster, self.offset_m, state.ambient(),
+                       state.history, seconds, self.caster.rays_cast, state, self.warnings, dict(self.counts),
+                       self.element_size_m)
+        lit._field, lit._to_mesh = self._receiver_field(), self._scene_to_mesh()
+        return lit
+
     @property
     def element_count(self) -> int:
         return self.elements.count

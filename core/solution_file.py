@@ -16,7 +16,7 @@ from .solution import Solution
 from .staged_files import StagedFiles
 
 FORMAT = "radiosity-solution"
-VERSION = 1
+VERSION = 2
 
 
 def save_solution(solution: Solution, path: str) -> None:

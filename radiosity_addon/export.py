@@ -7,7 +7,7 @@ make it "shadow only" (casts shadows, is not baked). Light and emission conventi
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import bpy
 import numpy as np
@@ -67,6 +67,7 @@ def export_scene(context) -> Export:
     """Read the evaluated scene; raises core.SceneError (naming the item) for what the core refuses."""
     depsgraph = context.evaluated_depsgraph_get()
     materials = _Materials()
+    groups = _LightGroups(context.view_layer, materials.warnings)
     columns = {name: [] for name in COLUMNS}
     objects, lights, names = [], [], []
     for instance in depsgraph.object_instances:
@@ -76,12 +77,12 @@ def export_scene(context) -> Export:
         if owner.hide_render or original.hide_render:
             continue
         if evaluated.type == "LIGHT":
-            lights.append(_light(evaluated, np.array(instance.matrix_world)))
+            lights.append(_light(evaluated, np.array(instance.matrix_world), groups.of(original)))
             continue
         mode = _mode(owner) if instance.is_instance else _mode(original)
         if evaluated.type not in GEOMETRY_TYPES or mode == "EXCLUDE":
             continue
-        part = _mesh_triangles(evaluated, np.array(instance.matrix_world), materials)
+        part = _mesh_triangles(evaluated, np.array(instance.matrix_world), materials, groups.of(original))
         if part is None:
             continue
         loops, vertices = part.pop("loops"), part.pop("vertices")
@@ -110,7 +111,7 @@ def export_scene(context) -> Export:
     nothing = {"triangles": np.zeros((0, 3, 3)), "material_index": np.zeros(0, dtype=int)}
     arrays = {key: np.concatenate(value) for key, value in columns.items() if value} or nothing
     scene = Scene(materials=materials.list or [DEFAULT_MATERIAL], lights=lights,
-                  world=_world(context.scene, materials.warnings), object_names=names, **arrays)
+                  world=_world(context.scene, materials.warnings, groups), object_names=names, **arrays)
     return Export(scene, objects, arrays["triangles"], materials.warnings)
 
 
@@ -177,10 +178,11 @@ def _same_topology(evaluated, original) -> bool:
     return len(mesh.loops) == len(original.data.loops) and len(mesh.polygons) == len(original.data.polygons)
 
 
-def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials") -> dict | None:
+def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials", light_group: str) -> dict | None:
     """An evaluated object's triangles as Scene columns: world-space "triangles" (t, 3, 3), "corner_normals"
-    (t, 3, 3), global "material_index" (t,), each corner's "triangle_uv" in its material's texture (t, 3, 2),
-    and its "loops" and "vertices" (t, 3) in the evaluated mesh; None without faces."""
+    (t, 3, 3), global "material_index" (t,) (its emissive materials in the object's ``light_group``), each
+    corner's "triangle_uv" in its material's texture (t, 3, 2), and its "loops" and "vertices" (t, 3) in the
+    evaluated mesh; None without faces."""
     mesh = evaluated.to_mesh()
     try:
         corners, loops = loop_triangles(mesh)
@@ -190,7 +192,7 @@ def _mesh_triangles(evaluated, matrix: np.ndarray, materials: "_Materials") -> d
         normals = world_corner_normals(mesh, matrix)
         slot = np.empty(len(corners), dtype=np.int32)
         mesh.loop_triangles.foreach_get("material_index", slot)
-        table = np.array([materials.index(s.material) for s in evaluated.material_slots] or
+        table = np.array([materials.index(s.material, light_group) for s in evaluated.material_slots] or
                          [materials.index(None)])
         material = table[np.clip(slot, 0, len(table) - 1)]
         uv = _texture_uvs(mesh, material, loops, materials.list)
@@ -255,12 +257,37 @@ class _Materials:
         self.warnings: list[str] = []
         self._index: dict[str, int] = {}
 
-    def index(self, material) -> int:
+    def index(self, material, light_group: str = "") -> int:
+        """The material's index; an emissive one's in ``light_group`` (the emitting object's) has its own."""
         key = material.name if material is not None else ""
         if key not in self._index:
             self._index[key] = len(self.list)
             self.list.append(read_material(material, self.warnings))
-        return self._index[key]
+        first = self.list[self._index[key]]
+        if not light_group or max(first.emitted_radiance) <= 0:
+            return self._index[key]
+        if (key, light_group) not in self._index:
+            self._index[key, light_group] = len(self.list)
+            self.list.append(replace(first, light_group=light_group))
+        return self._index[key, light_group]
+
+
+class _LightGroups:
+    """Cycles' light groups (View Layer > Light Groups): the group of a lamp, an emissive object or the world
+    (their ``lightgroup``), "" for none or for a name the view layer does not define (with a warning: Cycles
+    gives no pass to such a name either)."""
+
+    def __init__(self, view_layer, warnings: list[str]):
+        self.defined = {group.name for group in getattr(view_layer, "lightgroups", ())}
+        self.warnings = warnings
+
+    def of(self, owner) -> str:
+        name = getattr(owner, "lightgroup", "") or ""
+        if name and name not in self.defined:
+            self.warnings.append(f"'{owner.name}' is in light group '{name}', which View Layer > Light Groups does "
+                                 "not list: its light counts as ungrouped.")
+            return ""
+        return name
 
 
 def read_material(material, warnings: list[str]) -> Material:
@@ -372,42 +399,47 @@ def image_pixels(image, max_side: int = TEXTURE_MAX_SIDE) -> np.ndarray:
     return rgb
 
 
-def _light(obj, matrix: np.ndarray):
+def _light(obj, matrix: np.ndarray, light_group: str):
     data = obj.data
     position = tuple(matrix[:3, 3])
     direction = tuple(-matrix[:3, 2] / np.linalg.norm(matrix[:3, 2]))
     color = tuple(data.color)
     if data.type == "SUN":
-        return SunLight(obj.name, direction, data.energy, color, data.angle)
+        return SunLight(obj.name, direction, data.energy, color, data.angle, light_group)
     soft = bool(getattr(data, "use_soft_falloff", False))
     if data.type == "SPOT":
         return SpotLight(obj.name, position, direction, data.energy, data.spot_size, data.spot_blend, color,
-                         data.shadow_soft_size, soft)
+                         data.shadow_soft_size, soft, light_group)
     if data.type == "AREA":
         scale_x, scale_y = np.linalg.norm(matrix[:3, 0]), np.linalg.norm(matrix[:3, 1])
         size_y = data.size_y * scale_y if data.shape in ("RECTANGLE", "ELLIPSE") else None
         return AreaLight(obj.name, position, direction, data.energy, data.shape, data.size * scale_x, size_y,
-                         tuple(matrix[:3, 0]), color)
-    return PointLight(obj.name, position, data.energy, color, data.shadow_soft_size, soft)
+                         tuple(matrix[:3, 0]), color, light_group)
+    return PointLight(obj.name, position, data.energy, color, data.shadow_soft_size, soft, light_group)
 
 
-def _world(scene, warnings: list[str]) -> World:
+def _world(scene, warnings: list[str], groups: _LightGroups) -> World:
     world = scene.world
     if world is None:
         return World()
+    return World(_world_radiance(world, warnings), groups.of(world))
+
+
+def _world_radiance(world, warnings: list[str]) -> tuple:
+    """The world's constant background radiance: colour x strength of its Background node."""
     tree = world.node_tree if getattr(world, "use_nodes", True) else None
     if tree is None:
-        return World(tuple(world.color))
+        return tuple(world.color)
     outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output]
     if not outputs or not outputs[0].inputs["Surface"].is_linked:
-        return World()
+        return (0.0, 0.0, 0.0)
     background = outputs[0].inputs["Surface"].links[0].from_node
     if background.type != "BACKGROUND":
         warnings.append(f"World '{world.name}': the '{background.name}' node is not read; no world light.")
-        return World()
+        return (0.0, 0.0, 0.0)
     colour = background.inputs["Color"]
     if colour.is_linked:
         warnings.append(f"World '{world.name}': a texture drives the background colour; using the socket's own "
                         "colour.")
     strength = background.inputs["Strength"].default_value
-    return World(tuple(np.array(colour.default_value[:3]) * strength))
+    return tuple(np.array(colour.default_value[:3]) * strength)

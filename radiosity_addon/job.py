@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..core import BakeSettings, SceneError, bake
+from ..core.bake import bake_light_groups
 from ..core.atlas import AtlasSize, uv_area
 from ..core.geometry import triangle_areas
 from ..core.lightmap import LightmapSettings, bake_lightmap
@@ -21,13 +22,14 @@ from ..core.staged_files import StagedFiles
 from .export import Export, export_scene, make_linked_local
 from .lightmaps import LightmapPlan, plan_lightmap, write_lightmap
 from .presets import bake_settings, lightmap_settings
-from .settings import UserSettings
+from .settings import UNGROUPED, UserSettings, light_group_output
 from .writeback import check_attribute_name_free, write_radiosity_mesh, write_vertex_colors
 
 @dataclass
 class Job:
     """A bake under way: the exported scene, the user's settings and the core's made from them, where lightmap
-    files go ("" = pack into the .blend), and what the solve produced."""
+    files go ("" = pack into the .blend), the light groups written apart, and what the solve produced (with
+    ``groups``, each light group's solution)."""
 
     export: Export
     settings: BakeSettings
@@ -35,8 +37,10 @@ class Job:
     lightmap_folder: str
     lightmap_settings: LightmapSettings | None = None
     lightmap_plan: LightmapPlan | None = None
+    light_groups: tuple[str, ...] = ()
     started: float = field(default_factory=time.perf_counter)
     solution: object = None
+    groups: dict = field(default_factory=dict)
     lightmaps: list = field(default_factory=list)
     memory: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
@@ -51,16 +55,31 @@ def prepare(context, user: UserSettings, lightmap_folder: str) -> Job:
     settings = bake_settings(user, export.scene.size_m)
     if not any(item.writable for item in export.objects) and not user.create_radiosity_mesh:
         raise SceneError("Nothing to bake: no visible mesh object is set to 'Bake'.")
-    if user.vertex_colors:
-        check_attribute_name_free(export, user.attribute_name)
     job = Job(export, settings, user, lightmap_folder)
+    job.light_groups = _light_groups(job)
+    if user.vertex_colors:
+        for name in [user.attribute_name] + [light_group_output(user.attribute_name, g) for g in job.light_groups]:
+            check_attribute_name_free(export, name)
     limit_gb = user.max_memory_gb or default_limit_gb()
     if user.lightmaps:
         job.lightmap_settings, size = lightmap_settings(user, export.scene.size_m)
         _check_texel_density(job, size, limit_gb)
-        job.lightmap_plan = plan_lightmap(context, export, user, size)
+        job.lightmap_plan = plan_lightmap(context, export, user, size, job.light_groups)
     _fit_to_memory(job, limit_gb)
     return job
+
+
+def _light_groups(job: Job) -> tuple[str, ...]:
+    """The light groups to write apart: the scene's (core.scene.Scene.light_groups) when the user asked for them
+    and something is in one (with a warning when nothing is)."""
+    if not job.user.light_groups:
+        return ()
+    groups = tuple(job.export.scene.light_groups)
+    if not any(groups):
+        job.warnings.append("Light Groups is on, but no lamp, emissive object or world is in a light group (Object "
+                            "or World properties > Shading > Light Group): only the whole light is written.")
+        return ()
+    return groups
 
 
 def _check_texel_density(job: Job, size: AtlasSize, limit_gb: float) -> None:
@@ -111,10 +130,13 @@ def solve(job: Job, progress, cancelled) -> None:
 
 def _solve(job: Job, progress, cancelled) -> None:
     job.solution = bake(job.export.scene, job.settings, progress, cancelled)
+    if job.light_groups:
+        job.groups = bake_light_groups(job.solution, job.settings, progress, cancelled)
     plan = job.lightmap_plan
     if plan is not None:
         job.lightmaps = [bake_lightmap(job.solution, scene_triangle, corner_uv, plan.layout.width,
-                                       plan.layout.height, job.lightmap_settings, progress, cancelled)
+                                       plan.layout.height, job.lightmap_settings, progress, cancelled,
+                                       job.groups or None)
                          for scene_triangle, corner_uv in plan.page_triangles]
 
 
@@ -131,12 +153,19 @@ def apply(job: Job, staged: StagedFiles) -> dict:
     the report (REPORT.json's contract, docs/design in the README)."""
     objects, entries = [], []
     warnings = list(job.export.warnings) + job.warnings + list(job.solution.warnings)
+    group_files = {group: [] for group in job.light_groups}
     if job.lightmap_plan is not None:  # first: its files are what can still fail, before the .blend changes
         entries, more = write_lightmap(job.lightmap_plan, [page.light for page in job.lightmaps], _metadata(job),
                                        job.lightmap_folder, staged)
         warnings += job.lightmap_plan.warnings + more
+        for group in job.light_groups:
+            group_entries, more = write_lightmap(job.lightmap_plan.for_light_group(group),
+                                                 [page.groups[group] for page in job.lightmaps], _metadata(job),
+                                                 job.lightmap_folder, staged)
+            group_files[group] = sorted({entry["image"] for entry in group_entries})
+            warnings += more
     if job.user.vertex_colors:
-        objects, more = write_vertex_colors(job.export, job.solution, job.user)
+        objects, more = write_vertex_colors(job.export, job.solution, job.user, job.groups or None)
         warnings += more
     objects = _merge(objects, entries)
     if job.user.create_radiosity_mesh:
@@ -159,6 +188,8 @@ def apply(job: Job, staged: StagedFiles) -> dict:
         "units": "irradiance / pi (Cycles Diffuse bake, Direct + Indirect, no Color), scene-linear",
         "warnings": warnings,
     }
+    if job.light_groups:
+        report["light_groups"] = [_group_entry(job, group, group_files[group]) for group in job.light_groups]
     if job.lightmaps:
         timings = {}
         for page in job.lightmaps:
@@ -170,6 +201,21 @@ def apply(job: Job, staged: StagedFiles) -> dict:
                               "indirect": job.lightmaps[0].indirect,
                               "timings": timings, "settings": vars(job.lightmap_settings).copy()}
     return report
+
+
+def _group_entry(job: Job, group: str, images: list[str]) -> dict:
+    """The report's entry of one light group: its name ("" for the ungrouped light), its lamps, and the names of
+    its outputs (lightmap files, or images packed into the .blend, and colour attribute)."""
+    scene = job.export.scene
+    return {"name": group or UNGROUPED, "group": group,
+            "lights": [light.name for light in scene.lights if light.light_group == group],
+            "emissive_materials": sorted({m.name for m in scene.materials if m.light_group == group and
+                                          max(m.emitted_radiance) > 0}),
+            "world": bool(scene.world.light_group == group and max(scene.world.radiance) > 0),
+            "lightmap_image": light_group_output(job.user.lightmap_image, group) if job.user.lightmaps else None,
+            "images": images,
+            "color_attribute": light_group_output(job.user.attribute_name, group) if job.user.vertex_colors else None,
+            "timings": job.groups[group].seconds}
 
 
 def _merge(vertex_entries: list[dict], lightmap_entries: list[dict]) -> list[dict]:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import tempfile
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import bpy
 import numpy as np
@@ -27,7 +27,7 @@ from ..core.geometry import triangle_areas
 from ..core.image_file import HALF_MAX, check_image, write_exr, write_png
 from ..core.staged_files import StagedFiles
 from .export import Export, ExportedObject, loop_triangles, world_positions
-from .settings import UserSettings
+from .settings import UserSettings, light_group_output
 
 OWNED_UV = "radiosity_lightmap_uv"
 OWNED_IMAGE = "radiosity_lightmap"
@@ -42,7 +42,7 @@ class LightmapPlan:
     """The objects and their atlas layout; per page, the solved scene triangles it holds and their UVs; the user's
     settings (settings.UserSettings: UV map and image names, file format); per mesh, the UV map to write ((t, 3)
     loops of the original mesh and their (t, 3, 2) UVs); per object, the UV offset of its copy of a shared mesh's
-    block (None for the mesh's first user)."""
+    block (None for the mesh's first user); the light groups whose pages are written apart too."""
 
     objects: list[ExportedObject]
     layout: AtlasLayout
@@ -51,25 +51,33 @@ class LightmapPlan:
     mesh_uvs: dict[str, tuple[np.ndarray, np.ndarray]]
     uv_offsets: list[np.ndarray | None]
     warnings: list[str] = field(default_factory=list)
+    light_groups: tuple[str, ...] = ()
 
     @property
     def image_names(self) -> list[str]:
         return [page_image_name(self.user.lightmap_image, page) for page in range(self.layout.page_count)]
+
+    def for_light_group(self, group: str) -> LightmapPlan:
+        """The same pages under the light group's image name (settings.light_group_output)."""
+        return replace(self, user=replace(self.user, lightmap_image=light_group_output(self.user.lightmap_image,
+                                                                                       group)))
 
 
 def page_image_name(image_name: str, page: int) -> str:
     return image_name if page == 0 else f"{image_name} {page + 1}"
 
 
-def plan_lightmap(context, export: Export, user: UserSettings, size: AtlasSize) -> LightmapPlan:
+def plan_lightmap(context, export: Export, user: UserSettings, size: AtlasSize,
+                  light_groups: tuple[str, ...] = ()) -> LightmapPlan:
     """Unwrap and pack every baked mesh object; raises SceneError naming a mesh whose UV map name is taken.
+    ``light_groups``: those whose light is written apart too, as pages of their own (LightmapPlan.for_light_group).
 
     A mesh is unwrapped as its first user renders it when its modifiers keep the topology; otherwise its original
     mesh is unwrapped and the UV map reaches the rendered mesh through the modifiers, as any UV map does (what
     Cycles bakes too). Objects whose modifiers repeat the UVs (Array, Mirror, Solidify), drop or squash them would
     share or lack texels: they get no lightmap, with a warning naming them."""
     if user.lightmap_existing_uv:
-        return _plan_on_existing_uv_map(context, export, user, size)
+        return _plan_on_existing_uv_map(context, export, user, size, light_groups)
     objects = _lightmap_objects(export, user.lightmap_uv_map)
     warnings = []
     while True:
@@ -84,10 +92,11 @@ def plan_lightmap(context, export: Export, user: UserSettings, size: AtlasSize) 
                      "colours." for index, problem in problems.items()]
         objects = [item for index, item in enumerate(objects) if index not in problems]
     return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
-                                 mesh_uvs, uv_offsets, warnings))
+                                 mesh_uvs, uv_offsets, warnings, light_groups))
 
 
-def _plan_on_existing_uv_map(context, export: Export, user: UserSettings, size: AtlasSize) -> LightmapPlan:
+def _plan_on_existing_uv_map(context, export: Export, user: UserSettings, size: AtlasSize,
+                             light_groups: tuple[str, ...]) -> LightmapPlan:
     """The plan for baking onto a UV map the objects already have, as their modifiers carry it to the rendered
     mesh; the UV map is read, never changed. Objects whose UVs would share texels (linked duplicates, meshes each
     unwrapped onto the whole square) get separate pages; all pages have the resolution asked for, or the size the
@@ -113,7 +122,7 @@ def _plan_on_existing_uv_map(context, export: Export, user: UserSettings, size: 
     layout = AtlasLayout(rendered_uv, page, side, side, float(side * np.sqrt(areas_uv.sum() / areas_m2.sum())))
     warnings = _existing_uv_warnings(objects, rendered_uv, uv_map, side)
     return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
-                                 {}, [None] * len(objects), warnings))
+                                 {}, [None] * len(objects), warnings, light_groups))
 
 
 def _existing_uv_warnings(objects, rendered_uv, uv_map: str, side: int) -> list[str]:
@@ -142,8 +151,11 @@ def _page_triangles(export: Export, objects, rendered_uv, layout: AtlasLayout) -
 
 
 def _checked(plan: LightmapPlan) -> LightmapPlan:
-    for name in plan.image_names:
-        _check_image_name_free(name)
+    """The plan; raises SceneError naming an image name (its own or a light group's) that an image this add-on did
+    not make holds."""
+    for item in [plan] + [plan.for_light_group(group) for group in plan.light_groups]:
+        for name in item.image_names:
+            _check_image_name_free(name)
     return plan
 
 

@@ -10,6 +10,7 @@ from ..core import BakeCancelled, BakeError
 from . import hookup
 from . import job as bake_job
 from .lightmaps import lightmap_folder, page_images
+from .settings import light_group_output
 
 # The one interactive bake at a time; the worker thread writes only plain Python values here.
 STATUS = {"running": False, "fraction": 0.0, "message": "", "cancel": False, "error": None, "summary": ""}
@@ -153,7 +154,10 @@ class RADIOSITY_OT_preview(bpy.types.Operator):
             return {"FINISHED"}
         group = _baked_light_group(context.scene.radiosity)
         if group is None:
-            self.report({"WARNING"}, "Nothing baked yet: bake first.")
+            shown = context.scene.radiosity.preview_light_group
+            self.report({"WARNING"}, f"No light group '{shown}' was baked: bake with Light Groups, or clear Preview "
+                                     "Group." if shown and context.scene.radiosity.light_groups else
+                        "Nothing baked yet: bake first.")
             return {"CANCELLED"}
         baked = [o for o in context.scene.objects if o.type == "MESH" and _has_baked_light(o, context.scene.radiosity)]
         for material in hookup.materials_of(baked):
@@ -165,12 +169,16 @@ class RADIOSITY_OT_preview(bpy.types.Operator):
 
 
 def _baked_light_group(settings):
-    """The hookup group for what was baked: the lightmap image on its UV map, else the colour attribute."""
-    images = page_images(settings.lightmap_image)
+    """The hookup group for what was baked: the lightmap image on its UV map, else the colour attribute; those of
+    the light group Preview Group names, if it does."""
+    group = settings.preview_light_group if settings.light_groups else ""
+    image = light_group_output(settings.lightmap_image, group) if group else settings.lightmap_image
+    attribute = light_group_output(settings.attribute_name, group) if group else settings.attribute_name
+    images = page_images(image)
     if images:
         return hookup.baked_light_group(uv_map=settings.lightmap_uv_map, images=images)
-    if any(settings.attribute_name in m.color_attributes for m in bpy.data.meshes):
-        return hookup.baked_light_group(attribute=settings.attribute_name)
+    if any(attribute in m.color_attributes for m in bpy.data.meshes):
+        return hookup.baked_light_group(attribute=attribute)
     return None
 
 

@@ -37,6 +37,8 @@ class RENDER_PT_radiosity(bpy.types.Panel):
         else:
             layout.operator("radiosity.bake", icon="RENDER_STILL")
             layout.operator("radiosity.preview", icon="HIDE_OFF")
+            if settings.light_groups:
+                layout.prop(settings, "preview_light_group")
         if STATUS["summary"]:
             layout.label(text=STATUS["summary"])
 

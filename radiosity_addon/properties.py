@@ -1,6 +1,7 @@
 """Scene and object settings stored in the .blend (Render properties > Radiosity; Object properties > Radiosity).
 
-The scene's properties are made from settings.SETTINGS, the one table of what a user can choose.
+The scene's properties are made from settings.SETTINGS, the one table of what a user can choose (plus the panel's
+own Preview Group).
 """
 from __future__ import annotations
 
@@ -28,7 +29,12 @@ def _property(setting: Setting):
 
 
 class RadiositySceneSettings(bpy.types.PropertyGroup):
-    __annotations__ = {setting.name: _property(setting) for setting in SETTINGS}
+    """The table's settings, and what the panel alone uses: the light group the preview shows."""
+
+    __annotations__ = {setting.name: _property(setting) for setting in SETTINGS} | {
+        "preview_light_group": StringProperty(
+            name="Preview Group", description="The light group Preview Baked Light shows (its name, or "
+            "'ungrouped'); empty shows the sum of them all")}
 
     def user_settings(self) -> UserSettings:
         return UserSettings(**{setting.name: getattr(self, setting.name) for setting in SETTINGS})

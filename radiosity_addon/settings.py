@@ -85,6 +85,9 @@ SETTINGS = (
         ("VERTEX_COLORS", "Vertex Colors", "A colour attribute per mesh corner"),
         ("LIGHTMAP", "Lightmap", "A lightmap texture on a new UV map (sharp shadows at any mesh density)"),
         ("BOTH", "Both", "Vertex colours and a lightmap"))),
+    Setting("light_groups", "Light Groups", False, "Also write the light of each light group (View Layer > Light "
+            "Groups, set on lamps, emissive objects and the world) apart: lightmap pages and colour attributes named "
+            "after the group ('ungrouped' for the rest); the main result is their sum", flag="--light-groups"),
     Setting("attribute_name", "Attribute", "Radiosity", "Name of the colour attribute the bake writes (replaced "
             "on rebake)", flag="--attribute", section="vertex_colors"),
     Setting("vertex_domain", "Domain", "CORNER", "What the colour attribute holds a colour for",
@@ -152,6 +155,13 @@ SETTINGS = (
             flag="--make-local"),
 )
 BY_NAME = {setting.name: setting for setting in SETTINGS}
+UNGROUPED = "ungrouped"
+
+
+def light_group_output(name: str, group: str) -> str:
+    """The name of a light group's output: the main output's name (image, colour attribute) and the group's
+    ("ungrouped" for the light of no group)."""
+    return f"{name} {group or UNGROUPED}"
 
 
 def _check(values) -> None:

@@ -1,7 +1,8 @@
 """Write a solution back into the .blend: colour attributes on the original meshes and the radiosity mesh object.
 
 Only what this add-on made is ever replaced: a mesh remembers the name of the attribute we wrote
-(``mesh["radiosity_attribute"]``) and the radiosity mesh object carries ``obj["radiosity_mesh"]``. Existing UV maps,
+(``mesh["radiosity_attribute"]``, and the light groups' in ``mesh["radiosity_group_attributes"]``) and the radiosity
+mesh object carries ``obj["radiosity_mesh"]``. Existing UV maps,
 materials and other colour attributes are never touched. Everything runs in the main thread, after the solve, so a
 failed or cancelled bake has changed nothing.
 """
@@ -13,9 +14,10 @@ import numpy as np
 from ..core import SceneError
 from ..core.vertex_light import corner_light, projected_light
 from .export import Export, ExportedObject, world_corner_normals, world_positions
-from .settings import UserSettings
+from .settings import UserSettings, light_group_output
 
 OWNED_ATTRIBUTE = "radiosity_attribute"
+OWNED_GROUP_ATTRIBUTES = "radiosity_group_attributes"
 RADIOSITY_MESH_TAG = "radiosity_mesh"
 PROJECTION_REACH = 0.05  # of the scene's size: how far a corner of a modified mesh looks for its baked surface
 
@@ -24,17 +26,24 @@ def check_attribute_name_free(export: Export, name: str) -> None:
     """Refuse, before any work, to overwrite a colour attribute the user made with the same name."""
     for item in export.objects:
         mesh = bpy.data.meshes.get(item.mesh_name) if item.writable else None
-        if mesh is not None and name in mesh.color_attributes and mesh.get(OWNED_ATTRIBUTE) != name:
+        if mesh is not None and name in mesh.color_attributes and name not in _owned(mesh):
             raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a colour attribute '{name}' "
                              "that this add-on did not make; choose another attribute name.")
 
 
-def write_vertex_colors(export: Export, solution, user: UserSettings) -> tuple[list[dict], list[str]]:
+def _owned(mesh) -> set[str]:
+    """The colour attributes this add-on wrote on the mesh."""
+    return {mesh.get(OWNED_ATTRIBUTE)} | set(mesh.get(OWNED_GROUP_ATTRIBUTES, ()))
+
+
+def write_vertex_colors(export: Export, solution, user: UserSettings,
+                        groups: dict | None = None) -> tuple[list[dict], list[str]]:
     """Write the light of every baked object into its mesh's colour attribute (user.attribute_name, per corner or
     per vertex: user.vertex_domain; indirect light by user.vertex_indirect); returns per-object report entries and
-    warnings. An object that shares its mesh with one written before gets its own copy of the mesh first
-    (user.own_mesh_copies), as Blender's Make Single User > Object Data does; else it keeps the first one's
-    colours, with a warning."""
+    warnings. With ``groups`` (light group -> its Solution, core.bake.bake_light_groups) each group's light goes
+    into an attribute of its own (settings.light_group_output) and the main one holds their sum. An object that
+    shares its mesh with one written before gets its own copy of the mesh first (user.own_mesh_copies), as
+    Blender's Make Single User > Object Data does; else it keeps the first one's colours, with a warning."""
     kept = export.scene_index_of_input()
     written, outputs, warnings, copied = {}, [], [], []
     for item in export.objects:
@@ -51,8 +60,16 @@ def write_vertex_colors(export: Export, solution, user: UserSettings) -> tuple[l
             obj.data = mesh = mesh.copy()
             entry["own_mesh_copy"] = mesh.name
             copied.append(item.name)
-        light = loop_light(item, solution, kept, obj, user.vertex_indirect, user.vertex_gather_samples)
-        _write_attribute(mesh, user.attribute_name, light, user.vertex_domain)
+        lit = lambda lighting: loop_light(item, lighting, kept, obj, user.vertex_indirect,
+                                          user.vertex_gather_samples)
+        parts = {light_group_output(user.attribute_name, group): lit(lighting)
+                 for group, lighting in (groups or {}).items()}
+        _write_attribute(mesh, user.attribute_name, sum(parts.values()) if parts else lit(solution),
+                         user.vertex_domain)
+        for name, light in parts.items():
+            _write_attribute(mesh, name, light, user.vertex_domain, group=True)
+        if parts:
+            entry["light_group_attributes"] = list(parts)
         written[mesh.name] = item.name
         outputs.append(entry)
     if copied:
@@ -96,9 +113,10 @@ def _projected_light(item, solution, triangles, obj, method: str, gather_samples
                            PROJECTION_REACH * solution.scene.size_m, method, gather_samples_per_edge)
 
 
-def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER") -> None:
+def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER", group: bool = False) -> None:
     """The colour attribute ``name`` (replacing ours) holding (loops, 3) light per corner, or per vertex the mean of
-    its corners (what Cycles bakes into a vertex attribute)."""
+    its corners (what Cycles bakes into a vertex attribute); remembered as the main one or, ``group``, a light
+    group's."""
     existing = mesh.color_attributes.get(name)
     if existing is not None:
         mesh.color_attributes.remove(existing)
@@ -111,7 +129,10 @@ def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER")
     attribute = mesh.color_attributes.new(name, "FLOAT_COLOR", domain)
     rgba = np.concatenate([light, np.ones((len(light), 1))], axis=1).astype(np.float32)
     attribute.data.foreach_set("color", rgba.ravel())
-    mesh[OWNED_ATTRIBUTE] = name
+    if group:
+        mesh[OWNED_GROUP_ATTRIBUTES] = sorted(set(mesh.get(OWNED_GROUP_ATTRIBUTES, ())) | {name})
+    else:
+        mesh[OWNED_ATTRIBUTE] = name
 
 
 def write_radiosity_mesh(solution, attribute: str, name: str = "Radiosity Mesh"):

@@ -248,6 +248,8 @@ def room(path: Path) -> None:
                                                        "shadow_soft_size": 0.05}, (np.radians(30), 0.0, 0.0)),
               ("panel", "AREA", (2.7, 2.5, 2.55), 80.0, {"shape": "RECTANGLE", "size": 0.6, "size_y": 0.3},
                (0.0, 0.0, 0.0))]
+    for group in ("daylight", "lamps"):  # Cycles' light groups, which --light-groups bakes apart
+        bpy.context.view_layer.lightgroups.add(name=group)
     for name, kind, location, energy, data, rotation in lights:
         light = bpy.data.lights.new(name, kind)
         light.energy = energy
@@ -255,8 +257,10 @@ def room(path: Path) -> None:
             setattr(light, key, value)
         obj = bpy.data.objects.new(name, light)
         obj.location, obj.rotation_euler = location, rotation
+        obj.lightgroup = "daylight" if kind == "SUN" else "lamps"
         scene.collection.objects.link(obj)
     scene.world = bpy.data.worlds.new("Sky")
+    scene.world.lightgroup = "daylight"
     scene.world.use_nodes = True
     background = scene.world.node_tree.nodes["Background"]
     background.inputs["Color"].default_value = (0.35, 0.5, 0.8, 1.0)

@@ -146,15 +146,17 @@ def cycles_lightmap_bake(objects, uv_map: str, width: int, height: int, samples:
 
 def lightmap_bake(quality: str, folder, **settings) -> tuple:
     """Our lightmap bake of the open file through the job API, as the operator runs it (prepare, solve, apply),
-    with the given UserSettings keywords (lightmap_resolution=64, ...): (the job, whose ``lightmaps`` are its
-    pages and ``export`` the exported scene; the report; the seconds prepare and solve took)."""
+    with the given UserSettings keywords (lightmap_resolution=64, target="BOTH", ...): (the job, whose
+    ``lightmaps`` are its pages and ``export`` the exported scene; the report; the seconds prepare and solve
+    took)."""
     import time
 
     import bpy
     from radiosity_baker.radiosity_addon import job
     from radiosity_baker.radiosity_addon.settings import UserSettings
     started = time.perf_counter()
-    bake = job.prepare(bpy.context, UserSettings(quality=quality.upper(), target="LIGHTMAP", **settings), str(folder))
+    settings = {"target": "LIGHTMAP", **settings}
+    bake = job.prepare(bpy.context, UserSettings(quality=quality.upper(), **settings), str(folder))
     job.solve(bake, lambda fraction, message: None, lambda: False)
     seconds = time.perf_counter() - started
     return bake, job.write_outputs(bake), seconds
