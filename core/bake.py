@@ -204,15 +204,16 @@ def _solved_elements(state: HierarchicalState, node_element: np.ndarray, element
 
 
 def bake_light_groups(solution: Solution, settings: BakeSettings = BakeSettings(), progress: Progress = no_progress,
-                      cancelled=never_cancelled) -> dict[str, Solution]:
+                      cancelled=never_cancelled, grouped: Scene | None = None) -> dict[str, Solution]:
     """The light of each light group of ``solution``'s scene apart (core.scene.Scene.light_groups; "" the
     ungrouped): a Solution per group whose light sums to the scene's, since light is linear in emission (radiosity
     paper, section 4: B = (I - rho F)^-1 E). The hierarchical solver's elements, cluster tree and refined links,
-    the transport that costs the rays, serve every group: each group has its own direct light and solve (Scene.lit_by).
-    The classic solvers, for small scenes, bake each group anew."""
-    groups = {}
-    for group in solution.scene.light_groups:
-        scene = solution.scene.lit_by(group)
+    the transport that costs the rays, serve every group: each group has its own direct light and solve
+    (Scene.lit_by). The classic solvers, for small scenes, bake each group anew. ``grouped``: the same scene with
+    its lights grouped otherwise (core.relight.by_source: a group per source)."""
+    groups, grouped = {}, grouped or solution.scene
+    for group in grouped.light_groups:
+        scene = grouped.lit_by(group)
         progress(0.0, f"Light group '{group or 'ungrouped'}'")
         if settings.solver == "hierarchical":
             groups[group] = _relit(solution, scene, settings, progress, cancelled)

@@ -24,29 +24,38 @@ def save_solution(solution: Solution, path: str) -> None:
     or nothing changes and OutputError names the file."""
     saved = copy.copy(solution)
     saved.state = None
-
-    def write(temporary: str) -> None:
-        with open(temporary, "wb") as file:
-            pickle.dump({"format": FORMAT, "version": VERSION, "solution": saved}, file,
-                        protocol=pickle.HIGHEST_PROTOCOL)
     with StagedFiles() as staged:
-        staged.stage(path, write)
+        staged.stage(path, pickle_writer({"format": FORMAT, "version": VERSION, "solution": saved}))
         staged.commit()
 
 
 def load_solution(path: str) -> Solution:
     """The solution saved at ``path``; SceneError names the file if it is missing, unreadable, or not a solution
     of this version."""
+    return read_pickle(path, FORMAT, VERSION, "saved radiosity solution")["solution"]
+
+
+def pickle_writer(content: dict):
+    """A writer of ``content`` as a pickle, for core.staged_files.StagedFiles.stage."""
+    def write(temporary: str) -> None:
+        with open(temporary, "wb") as file:
+            pickle.dump(content, file, protocol=pickle.HIGHEST_PROTOCOL)
+    return write
+
+
+def read_pickle(path: str, format_name: str, version: int, what: str) -> dict:
+    """The dict pickled at ``path`` with the given "format" and "version"; SceneError names the file (and
+    ``what`` it should be) if it is missing, unreadable, truncated, or of another format or version."""
     try:
         with open(path, "rb") as file:
             saved = pickle.load(file)
     except OSError as error:
-        raise SceneError(f"Cannot read the solution file '{path}': {error.strerror or error}.") from error
+        raise SceneError(f"Cannot read the {what} '{path}': {error.strerror or error}.") from error
     except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, IndexError, TypeError) as error:
-        raise SceneError(f"'{path}' is not a saved radiosity solution (or it is truncated).") from error
-    if not isinstance(saved, dict) or saved.get("format") != FORMAT:
-        raise SceneError(f"'{path}' is not a saved radiosity solution.")
-    if saved.get("version") != VERSION:
-        raise SceneError(f"'{path}' is a solution of format version {saved.get('version')}; this baker reads "
-                         f"version {VERSION}. Bake the scene again.")
-    return saved["solution"]
+        raise SceneError(f"'{path}' is not a {what} (or it is truncated).") from error
+    if not isinstance(saved, dict) or saved.get("format") != format_name:
+        raise SceneError(f"'{path}' is not a {what}.")
+    if saved.get("version") != version:
+        raise SceneError(f"'{path}' is a {what} of format version {saved.get('version')}; this baker reads "
+                         f"version {version}. Bake the scene again.")
+    return saved

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SettingsError
-from .gather import final_gather
+from .gather import final_gather_parts
 from .geometry import lengths, tangent_frames, triangle_unit_normals
 from .parallel import steps_in_flight
 from .raycast import RayCaster
@@ -43,17 +43,21 @@ FACING_ALIGNMENT = 0.9  # a surface turned within about 25 degrees of a corner's
 
 
 def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, method: str,
-                 gather_samples_per_edge: int, seed: int = 0) -> np.ndarray:
+                 gather_samples_per_edge: int, seed: int = 0, lightings: list | None = None) -> np.ndarray:
     """(m, 3) light (irradiance / pi, as outputs store it) at surface points given by scene triangle and
     barycentrics: direct light traced there, indirect light by ``method``: "gather" (s^2 rays, s =
     ``gather_samples_per_edge``), "interpolate", or "auto": the gather at corners where surfaces lie close by
-    (``near_share``), interpolation elsewhere. NaN on unsolved triangles."""
+    (``near_share``), interpolation elsewhere. NaN on unsolved triangles. With ``lightings`` (G solutions of the
+    same surfaces lit by parts of the light: light groups, sources), (G, m, 3) the light of each, the gather's
+    rays shared."""
     if method not in VERTEX_METHODS:
         raise SettingsError(f"Vertex indirect light must be one of {', '.join(VERTEX_METHODS)}, got '{method}'.")
     scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
     barycentric = np.asarray(barycentric, dtype=np.float64)
+    parts = [solution] if lightings is None else list(lightings)
     if method == "interpolate":
-        return solution.evaluate(scene_triangle, barycentric, direct_per_point=True)
+        light = np.stack([part.evaluate(scene_triangle, barycentric, direct_per_point=True) for part in parts])
+        return light if lightings is not None else light[0]
     moved, points, normals = solution.sample_points(scene_triangle, barycentric)
     shading = solution.scene.shading_normals(scene_triangle, moved)
     surface = np.einsum("mc,mck->mk", moved, solution.scene.triangles[scene_triangle])  # before the inset
@@ -62,18 +66,20 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
     gathered = np.ones(len(first), dtype=bool)
     if method == "auto":
         gathered = near_share(solution, point, face, seed) >= GATHER_NEAR_SHARE
-    light = np.zeros((len(first), 3))
+    light = np.zeros((len(parts), len(first), 3))
     near_m = NEAR_ELEMENTS * solution.element_size_m
-    here = np.flatnonzero(gathered)
-    indirect, _ = final_gather(solution, solution.caster, point[here][:, None, :], shade[here],
-                               gather_samples_per_edge, solution.offset_m, seed, face_normals=face[here],
-                               near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE,
-                               workers=steps_in_flight(solution.caster.threads))
-    light[here] = solution.output_light(solution.direct_light(
-        point[here], shade[here], triangle[here], moved[first][here], world=False) + indirect, triangle[here])
-    rest = np.flatnonzero(~gathered)
-    light[rest] = solution.light_at(triangle[rest], moved[first][rest], point[rest], face[rest], direct_per_point=True)
-    return light[shared]
+    here, rest = np.flatnonzero(gathered), np.flatnonzero(~gathered)
+    indirect, _ = final_gather_parts(parts, solution.caster, point[here][:, None, :], shade[here],
+                                     gather_samples_per_edge, solution.offset_m, seed, face_normals=face[here],
+                                     near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE,
+                                     workers=steps_in_flight(solution.caster.threads))
+    for part, part_light, part_indirect in zip(parts, light, indirect):
+        part_light[here] = part.output_light(part.direct_light(
+            point[here], shade[here], triangle[here], moved[first][here], world=False) + part_indirect,
+            triangle[here])
+        part_light[rest] = part.light_at(triangle[rest], moved[first][rest], point[rest], face[rest],
+                                         direct_per_point=True)
+    return light[:, shared] if lightings is not None else light[0, shared]
 
 
 def near_share(solution, points: np.ndarray, normals: np.ndarray, seed: int) -> np.ndarray:
@@ -99,14 +105,15 @@ def _distinct(solution, scene_triangle, points, normals, shading) -> tuple[np.nd
 
 def projected_light(solution, triangles: np.ndarray, points: np.ndarray, normals: np.ndarray,
                     face_centroids: np.ndarray, reach_m: float, method: str,
-                    gather_samples_per_edge: int) -> np.ndarray:
-    """(m, 3) light at (m, 3) world corner points with unit normals, taken (by ``corner_light``) where their
-    normal lines meet the given solved scene triangles nearest to them (rays from ``reach_m`` out on either
-    side), on a surface turned like the corner's face. A corner whose line meets none is moved along
-    PROJECTION_INSET_STEPS of the way towards its original face's centroid (``face_centroids``, (m, 3)) and tried
-    again: a Bevel cuts a cube's edges back, so the normal line through an original corner runs in the plane of a
-    neighbouring face, just outside it, or meets the chamfer at the corner. Corners that find no such surface take
-    the nearest surface their lines meet, however it is turned (a curved Subdivision surface)."""
+                    gather_samples_per_edge: int, lightings: list) -> np.ndarray:
+    """(G, m, 3) light of each of the G ``lightings`` (as for ``corner_light``) at (m, 3) world corner points
+    with unit normals, taken (by ``corner_light``) where their normal lines meet the given solved scene triangles
+    nearest to them (rays from ``reach_m`` out on either side), on a surface turned like the corner's face. A
+    corner whose line meets none is moved along PROJECTION_INSET_STEPS of the way towards its original face's
+    centroid (``face_centroids``, (m, 3)) and tried again: a Bevel cuts a cube's edges back, so the normal line
+    through an original corner runs in the plane of a neighbouring face, just outside it, or meets the chamfer at
+    the corner. Corners that find no such surface take the nearest surface their lines meet, however it is turned
+    (a curved Subdivision surface)."""
     caster = RayCaster(solution.scene.triangles[triangles], threads=1)
     hit_triangle = np.full(len(points), -1)
     hit_bary = np.zeros((len(points), 3))
@@ -120,9 +127,10 @@ def projected_light(solution, triangles: np.ndarray, points: np.ndarray, normals
                 hit_triangle[missing[found]], hit_bary[missing[found]] = triangle, bary
     finally:
         caster.close()
-    light = np.zeros((len(points), 3))
+    light = np.zeros((len(lightings), len(points), 3))
     found = np.flatnonzero(hit_triangle >= 0)
-    light[found] = corner_light(solution, hit_triangle[found], hit_bary[found], method, gather_samples_per_edge)
+    light[:, found] = corner_light(solution, hit_triangle[found], hit_bary[found], method, gather_samples_per_edge,
+                                   lightings=lightings)
     return np.nan_to_num(light)
 
 

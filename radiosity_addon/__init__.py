@@ -20,6 +20,7 @@ def register():
         for cls in module.classes:
             bpy.utils.register_class(cls)
     properties.register_properties()
+    operators.watch(True)
     if hasattr(bpy.utils, "register_cli_command"):
         from .cli import blender_command
         _cli_handle = bpy.utils.register_cli_command("radiosity_bake", blender_command)
@@ -32,6 +33,7 @@ def unregister():
     if _cli_handle is not None:
         bpy.utils.unregister_cli_command(_cli_handle)
         _cli_handle = None
+    operators.watch(False)
     properties.unregister_properties()
     for module in (panels, operators, properties):
         for cls in reversed(module.classes):

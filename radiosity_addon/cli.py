@@ -68,6 +68,10 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     parser.add_argument("--overwrite", action="store_true", help="allow OUT.blend to be IN.blend (replaced whole, "
                         "only when the bake succeeds; the old file is kept as OUT.blend1)")
     parser.add_argument("--report", metavar="REPORT.json", help="write a JSON report of outputs and timings")
+    parser.add_argument("--relight", metavar="CACHE", help="write the outputs from the relighting cache a bake with "
+                        "--cache wrote, for the lamps' strengths and colours, emission strengths, world strength "
+                        "and light groups of IN.blend now, without baking (refused, naming it, if anything else "
+                        "changed)")
     for setting in SETTINGS:
         if setting.flag:
             parser.add_argument(setting.flag, dest=setting.name, default=argparse.SUPPRESS, **_option(setting))
@@ -159,8 +163,11 @@ def _checked_bake(args) -> dict:
     except RuntimeError as error:
         raise CommandError(EXIT_INPUT, f"cannot read {args.input}: {str(error).strip().splitlines()[-1]}")
     started = time.perf_counter()
-    job = bake_job.prepare(bpy.context, user, folder)
-    bake_job.solve(job, _progress_to_stderr(), lambda: False)
+    if args.relight:
+        job = bake_job.relight_job(bpy.context, user, folder, os.path.abspath(args.relight))
+    else:
+        job = bake_job.prepare(bpy.context, user, folder)
+        bake_job.solve(job, _progress_to_stderr(), lambda: False)
     with StagedFiles() as staged:
         report = bake_job.apply(job, staged)
         report["seconds"] = time.perf_counter() - started
@@ -183,6 +190,11 @@ def _check_arguments(args, user: UserSettings) -> str:
         raise CommandError(EXIT_INPUT, f"the input is a folder, not a .blend file: {args.input}")
     if not os.path.isfile(args.input):
         raise CommandError(EXIT_INPUT, f"input file not found: {args.input}")
+    if args.relight and not os.path.isfile(args.relight):
+        raise CommandError(EXIT_INPUT, f"relighting cache not found: {args.relight}")
+    if args.relight and user.relight_cache:
+        raise CommandError(EXIT_BAD_ARGUMENT, "--relight writes from a cache and bakes nothing, so it cannot write "
+                                              "a new one with --cache")
     if os.path.exists(args.output) and os.path.samefile(args.input, args.output) and not args.overwrite:
         raise CommandError(EXIT_BAD_ARGUMENT, f"the output is the input file {args.input}: pass --overwrite to "
                                               "replace it, or give another -o")

@@ -11,25 +11,34 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 from ..core import BakeSettings, SceneError, bake
 from ..core.bake import bake_light_groups
+from ..core.relight import by_source, mix, sources, weights
 from ..core.atlas import AtlasSize, uv_area
 from ..core.geometry import triangle_areas
-from ..core.lightmap import LightmapSettings, bake_lightmap
+from ..core.lightmap import Lightmap, LightmapSettings, bake_lightmap
 from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory
 from ..core.raycast import backend_name
 from ..core.staged_files import StagedFiles
 from .export import Export, export_scene, make_linked_local
-from .lightmaps import LightmapPlan, plan_lightmap, write_lightmap
+from .lightmaps import LightmapPlan, checked, plan_lightmap, write_lightmap
 from .presets import bake_settings, lightmap_settings
+from .relighting import check_cache_path, load_cache, stage_cache, transport_key
 from .settings import UNGROUPED, UserSettings, light_group_output
-from .writeback import check_attribute_name_free, write_radiosity_mesh, write_vertex_colors
+from .writeback import check_attribute_name_free, loop_light, write_radiosity_mesh, write_vertex_colors
 
 @dataclass
 class Job:
     """A bake under way: the exported scene, the user's settings and the core's made from them, where lightmap
-    files go ("" = pack into the .blend), the light groups written apart, and what the solve produced (with
-    ``groups``, each light group's solution)."""
+    files go ("" = pack into the .blend), the light groups written apart, and what the solve produced.
+
+    The outputs are mixed from a basis: ``basis`` the solutions of the light's parts (each light group's, or each
+    source's for a relighting cache, core.relight; none for a plain bake, whose one part is ""), ``weights`` (3,)
+    per part, and ``members``, the parts of each light group written apart. ``stats``: the solve's numbers the
+    report gives; ``corner_basis``: per object, each part's light per mesh loop (made while writing, or read from
+    a relighting cache)."""
 
     export: Export
     settings: BakeSettings
@@ -40,7 +49,12 @@ class Job:
     light_groups: tuple[str, ...] = ()
     started: float = field(default_factory=time.perf_counter)
     solution: object = None
-    groups: dict = field(default_factory=dict)
+    basis: dict = field(default_factory=dict)
+    weights: dict = field(default_factory=lambda: {"": np.ones(3)})
+    members: dict = field(default_factory=dict)
+    sources: list = field(default_factory=list)
+    stats: dict = field(default_factory=dict)
+    corner_basis: dict = field(default_factory=dict)
     lightmaps: list = field(default_factory=list)
     memory: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
@@ -56,7 +70,9 @@ def prepare(context, user: UserSettings, lightmap_folder: str) -> Job:
     if not any(item.writable for item in export.objects) and not user.create_radiosity_mesh:
         raise SceneError("Nothing to bake: no visible mesh object is set to 'Bake'.")
     job = Job(export, settings, user, lightmap_folder)
-    job.light_groups = _light_groups(job)
+    job.light_groups = light_groups_to_write(job)
+    if user.relight_cache:
+        check_cache_path(user.relight_cache)
     if user.vertex_colors:
         for name in [user.attribute_name] + [light_group_output(user.attribute_name, g) for g in job.light_groups]:
             check_attribute_name_free(export, name)
@@ -69,7 +85,7 @@ def prepare(context, user: UserSettings, lightmap_folder: str) -> Job:
     return job
 
 
-def _light_groups(job: Job) -> tuple[str, ...]:
+def light_groups_to_write(job: Job) -> tuple[str, ...]:
     """The light groups to write apart: the scene's (core.scene.Scene.light_groups) when the user asked for them
     and something is in one (with a warning when nothing is)."""
     if not job.user.light_groups:
@@ -95,13 +111,16 @@ def _check_texel_density(job: Job, size: AtlasSize, limit_gb: float) -> None:
 
 def _fit_to_memory(job: Job, limit_gb: float) -> None:
     """Estimate the bake's memory before the heavy work; coarsen the elements if that makes it fit (with a
-    warning), or refuse the bake (core.memory.MemoryLimitError) if nothing does."""
+    warning), or refuse the bake (core.memory.MemoryLimitError) if nothing does. A bake split into parts (light
+    groups, or sources for a relighting cache) holds every part's texels and pages."""
     scene, plan = job.export.scene, job.lightmap_plan
     covered, image = 0, 0
+    parts = len(sources(scene)) if job.user.relight_cache else max(1, len(job.light_groups))
     if plan is not None:
         width, height = plan.layout.width, plan.layout.height
-        covered = max((int(uv_area(corner_uv) * width * height) for _, corner_uv in plan.page_triangles), default=0)
-        image = width * height * len(plan.page_triangles)
+        covered = parts * max((int(uv_area(corner_uv) * width * height) for _, corner_uv in plan.page_triangles),
+                              default=0)
+        image = parts * width * height * len(plan.page_triangles)
     asked = job.settings.element_size_m
     size, estimate = fit_to_memory(scene.triangles[~scene.casts_only], asked, limit_gb, covered, image,
                                    job.settings.threads)
@@ -129,14 +148,24 @@ def solve(job: Job, progress, cancelled) -> None:
 
 
 def _solve(job: Job, progress, cancelled) -> None:
-    job.solution = bake(job.export.scene, job.settings, progress, cancelled)
-    if job.light_groups:
-        job.groups = bake_light_groups(job.solution, job.settings, progress, cancelled)
+    scene = job.export.scene
+    job.solution = solution = bake(scene, job.settings, progress, cancelled)
+    job.stats = {"timings": solution.seconds, "elements": solution.element_count, "solve": solution.counts,
+                 "residual": solution.residual, "rays": solution.rays_cast, "warnings": list(solution.warnings)}
+    if job.user.relight_cache:  # a part per source of light: the relighting basis (core.relight)
+        job.sources = sources(scene)
+        job.basis = bake_light_groups(solution, job.settings, progress, cancelled, by_source(scene))
+        job.members = {group: list(dict.fromkeys(s.key for s in job.sources if s.light_group == group))
+                       for group in job.light_groups}
+    elif job.light_groups:
+        job.basis = bake_light_groups(solution, job.settings, progress, cancelled)
+        job.members = {group: [group] for group in job.light_groups}
+    if job.basis:
+        job.weights = {key: np.ones(3) for key in job.basis}
     plan = job.lightmap_plan
     if plan is not None:
-        job.lightmaps = [bake_lightmap(job.solution, scene_triangle, corner_uv, plan.layout.width,
-                                       plan.layout.height, job.lightmap_settings, progress, cancelled,
-                                       job.groups or None)
+        job.lightmaps = [bake_lightmap(solution, scene_triangle, corner_uv, plan.layout.width, plan.layout.height,
+                                       job.lightmap_settings, progress, cancelled, job.basis or None)
                          for scene_triangle, corner_uv in plan.page_triangles]
 
 
@@ -152,35 +181,35 @@ def apply(job: Job, staged: StagedFiles) -> dict:
     """Write the outputs into the .blend and stage their files in ``staged`` (the caller commits them); returns
     the report (REPORT.json's contract, docs/design in the README)."""
     objects, entries = [], []
-    warnings = list(job.export.warnings) + job.warnings + list(job.solution.warnings)
+    warnings = list(job.export.warnings) + job.warnings + list(job.stats["warnings"])
     group_files = {group: [] for group in job.light_groups}
     if job.lightmap_plan is not None:  # first: its files are what can still fail, before the .blend changes
-        entries, more = write_lightmap(job.lightmap_plan, [page.light for page in job.lightmaps], _metadata(job),
-                                       job.lightmap_folder, staged)
+        entries, more = write_lightmap(job.lightmap_plan, [_mixed(job, page) for page in job.lightmaps],
+                                       _metadata(job), job.lightmap_folder, staged)
         warnings += job.lightmap_plan.warnings + more
         for group in job.light_groups:
             group_entries, more = write_lightmap(job.lightmap_plan.for_light_group(group),
-                                                 [page.groups[group] for page in job.lightmaps], _metadata(job),
-                                                 job.lightmap_folder, staged)
+                                                 [_mixed(job, page, group) for page in job.lightmaps],
+                                                 _metadata(job), job.lightmap_folder, staged)
             group_files[group] = sorted({entry["image"] for entry in group_entries})
             warnings += more
     if job.user.vertex_colors:
-        objects, more = write_vertex_colors(job.export, job.solution, job.user, job.groups or None)
+        objects, more = write_vertex_colors(job.export, job.user, lambda item, obj: _corner_light(job, item, obj),
+                                            job.light_groups)
         warnings += more
     objects = _merge(objects, entries)
-    if job.user.create_radiosity_mesh:
+    if job.user.create_radiosity_mesh and job.solution is not None:
         obj = write_radiosity_mesh(job.solution, job.user.attribute_name)
         objects.append({"name": obj.name, "color_attribute": job.user.attribute_name, "uv_map": None, "image": None,
                         "resolution": None})
-    solution = job.solution
     report = {
         "objects": objects,
         "seconds": time.perf_counter() - job.started,
-        "timings": solution.seconds,
-        "elements": solution.element_count,
-        "solve": solution.counts,
-        "residual": solution.residual,
-        "rays": solution.rays_cast,
+        "timings": job.stats["timings"],
+        "elements": job.stats["elements"],
+        "solve": job.stats["solve"],
+        "residual": job.stats["residual"],
+        "rays": job.stats["rays"],
         "ray_backend": backend_name(),
         "dropped_triangles": job.export.scene.dropped_triangles,
         "settings": job.settings.as_dict(),
@@ -190,6 +219,8 @@ def apply(job: Job, staged: StagedFiles) -> dict:
     }
     if job.light_groups:
         report["light_groups"] = [_group_entry(job, group, group_files[group]) for group in job.light_groups]
+    if job.user.relight_cache and job.solution is not None:  # a bake, not a relight: keep its basis
+        report["relight_cache"] = stage_cache(job, staged)
     if job.lightmaps:
         timings = {}
         for page in job.lightmaps:
@@ -203,6 +234,27 @@ def apply(job: Job, staged: StagedFiles) -> dict:
     return report
 
 
+def _mixed(job: Job, page, group: str | None = None) -> np.ndarray:
+    """A page's light: the whole (``group`` None) or a light group's, mixed from the basis at its weights."""
+    if not page.groups:
+        return page.light
+    return mix(page.groups, job.weights, list(job.weights) if group is None else job.members[group])
+
+
+def _corner_light(job: Job, item, obj) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """An object's light per mesh loop, whole and per light group written apart, mixed from the basis (each
+    part's light traced now, or read from a relighting cache)."""
+    if item.name not in job.corner_basis:
+        kept, user = job.export.scene_index_of_input(), job.user
+        lightings = list(job.basis.values()) or [job.solution]
+        light = loop_light(item, job.solution, kept, obj, user.vertex_indirect, user.vertex_gather_samples,
+                           lightings)
+        job.corner_basis[item.name] = dict(zip(job.basis or [""], light))
+    basis = job.corner_basis[item.name]
+    return mix(basis, job.weights, list(job.weights)), {group: mix(basis, job.weights, job.members[group])
+                                                         for group in job.light_groups}
+
+
 def _group_entry(job: Job, group: str, images: list[str]) -> dict:
     """The report's entry of one light group: its name ("" for the ungrouped light), its lamps, and the names of
     its outputs (lightmap files, or images packed into the .blend, and colour attribute)."""
@@ -214,8 +266,7 @@ def _group_entry(job: Job, group: str, images: list[str]) -> dict:
             "world": bool(scene.world.light_group == group and max(scene.world.radiance) > 0),
             "lightmap_image": light_group_output(job.user.lightmap_image, group) if job.user.lightmaps else None,
             "images": images,
-            "color_attribute": light_group_output(job.user.attribute_name, group) if job.user.vertex_colors else None,
-            "timings": job.groups[group].seconds}
+            "color_attribute": light_group_output(job.user.attribute_name, group) if job.user.vertex_colors else None}
 
 
 def _merge(vertex_entries: list[dict], lightmap_entries: list[dict]) -> list[dict]:
@@ -241,3 +292,38 @@ def _version() -> str:
     manifest = Path(__file__).resolve().parents[1] / "blender_manifest.toml"
     with open(manifest, "rb") as handle:
         return tomllib.load(handle)["version"]
+
+
+def relight_job(context, user: UserSettings, lightmap_folder: str, path: str):
+    """A job whose outputs are mixed from the cache at ``path`` for the scene as it is now, with no ray cast;
+    SceneError names what changed when the cache no longer holds (core.relight.TransportKey.changes) or a source
+    it cannot light."""
+    started = time.perf_counter()
+    cache = load_cache(path)
+    export = export_scene(context)
+    changed = transport_key(export.scene, user).changes(cache["key"])
+    if changed:
+        raise SceneError(f"The relighting cache '{path}' no longer fits the scene: {', '.join(changed)} changed "
+                         "since it was baked. Bake again.")
+    job = Job(export, cache["settings"], user, lightmap_folder, cache["lightmap_settings"])
+    now = sources(export.scene)
+    # The groups of the bake too: a group whose lamps are all off now is written dark, not left as it was.
+    groups = sorted(set(export.scene.light_groups) | {source.light_group for source in cache["sources"]})
+    job.light_groups = tuple(groups) if user.light_groups and any(groups) else ()
+    job.weights = weights(cache["sources"], now)
+    group_of = {source.key: source.light_group for source in cache["sources"]} | {s.key: s.light_group for s in now}
+    job.members = {group: [key for key in job.weights if group_of[key] == group] for group in job.light_groups}
+    job.sources, job.stats, job.memory = cache["sources"], dict(cache["stats"]), cache["memory"]
+    job.corner_basis = cache["corner_basis"]
+    if cache["lightmap_plan"] is not None and user.lightmaps:
+        job.lightmap_plan = checked(replace(cache["lightmap_plan"], user=user, light_groups=job.light_groups))
+        job.lightmaps = [Lightmap(None, page["covered"], page["moved"], page["texel_count"], page["indirect"], {},
+                                  page["groups"]) for page in cache["pages"]]
+    job.stats["timings"] = {"relight": time.perf_counter() - started}
+    if user.vertex_colors and not job.corner_basis:
+        raise SceneError(f"The relighting cache '{path}' holds no colour attributes (it was baked with Target "
+                         "Lightmap): bake again, or relight the lightmap only.")
+    if user.lightmaps and not job.lightmaps:
+        raise SceneError(f"The relighting cache '{path}' holds no lightmap (it was baked with Target Vertex "
+                         "Colors): bake again, or relight the colour attributes only.")
+    return job

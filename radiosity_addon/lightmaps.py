@@ -91,7 +91,7 @@ def plan_lightmap(context, export: Export, user: UserSettings, size: AtlasSize,
         warnings += [f"Object '{objects[index].name}' gets no lightmap: {problem}; apply them, or bake vertex "
                      "colours." for index, problem in problems.items()]
         objects = [item for index, item in enumerate(objects) if index not in problems]
-    return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
+    return checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
                                  mesh_uvs, uv_offsets, warnings, light_groups))
 
 
@@ -121,7 +121,7 @@ def _plan_on_existing_uv_map(context, export: Export, user: UserSettings, size: 
     page = pages_without_overlap(rendered_uv, side, side)
     layout = AtlasLayout(rendered_uv, page, side, side, float(side * np.sqrt(areas_uv.sum() / areas_m2.sum())))
     warnings = _existing_uv_warnings(objects, rendered_uv, uv_map, side)
-    return _checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
+    return checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
                                  {}, [None] * len(objects), warnings, light_groups))
 
 
@@ -150,7 +150,7 @@ def _page_triangles(export: Export, objects, rendered_uv, layout: AtlasLayout) -
     return [(np.concatenate(triangles), np.concatenate(uvs)) for triangles, uvs in pages]
 
 
-def _checked(plan: LightmapPlan) -> LightmapPlan:
+def checked(plan: LightmapPlan) -> LightmapPlan:
     """The plan; raises SceneError naming an image name (its own or a light group's) that an image this add-on did
     not make holds."""
     for item in [plan] + [plan.for_light_group(group) for group in plan.light_groups]:

@@ -2,6 +2,7 @@
 Cancel, and the viewport preview of the baked light."""
 from __future__ import annotations
 
+import os
 import threading
 
 import bpy
@@ -10,10 +11,13 @@ from ..core import BakeCancelled, BakeError
 from . import hookup
 from . import job as bake_job
 from .lightmaps import lightmap_folder, page_images
+from .export import export_scene
+from .relighting import SESSION, cache_path, load_cache, transport_key
 from .settings import light_group_output
 
 # The one interactive bake at a time; the worker thread writes only plain Python values here.
-STATUS = {"running": False, "fraction": 0.0, "message": "", "cancel": False, "error": None, "summary": ""}
+STATUS = {"running": False, "fraction": 0.0, "message": "", "cancel": False, "error": None, "summary": "",
+          "relight": "", "checking": False}
 
 
 def _user_args(context):
@@ -46,7 +50,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         except BakeError as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        return self._apply(job)
+        return _apply(self, job)
 
     def invoke(self, context, event):
         try:
@@ -94,26 +98,52 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
             self.report({"WARNING"}, STATUS["summary"])
             return {"CANCELLED"}
         if error is not None:
-            return self._failed(error)
-        return self._apply(self._job)
+            return _failed(self, error)
+        return _apply(self, self._job)
 
-    def _failed(self, error):
-        STATUS["summary"] = f"Bake failed: {error}"
-        self.report({"ERROR"}, STATUS["summary"])
-        return {"CANCELLED"}
 
-    def _apply(self, job):
-        """Write the results (main thread) and report; a file that cannot be written fails the bake, and the
-        earlier files stay as they were."""
+
+def _failed(operator, error):
+    STATUS["summary"] = f"Bake failed: {error}"
+    operator.report({"ERROR"}, STATUS["summary"])
+    return {"CANCELLED"}
+
+
+def _apply(operator, job):
+    """Write the results (main thread) and report; a file that cannot be written fails the bake, and the earlier
+    files stay as they were."""
+    try:
+        report = bake_job.write_outputs(job)
+    except BakeError as error:
+        return _failed(operator, error)
+    for warning in report["warnings"]:
+        operator.report({"WARNING"}, warning)
+    STATUS["summary"] = _summary(report)
+    STATUS["relight"] = ""
+    operator.report({"INFO"}, STATUS["summary"])
+    return {"FINISHED"}
+
+
+class RADIOSITY_OT_update_light(bpy.types.Operator):
+    """Write the baked light again from the relighting cache, for the lamps' strengths and colours, emission
+    strengths, the world's strength and the light groups as they are now, without baking; refused, naming it,
+    when anything else changed since the cache was baked"""
+
+    bl_idname = "radiosity.update_light"
+    bl_label = "Update Light"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return not STATUS["running"] and context.scene is not None and bool(context.scene.radiosity.relight_cache)
+
+    def execute(self, context):
         try:
-            report = bake_job.write_outputs(job)
+            user, folder = _user_args(context)
+            job = bake_job.relight_job(context, user, folder, cache_path(user.relight_cache))
         except BakeError as error:
-            return self._failed(error)
-        for warning in report["warnings"]:
-            self.report({"WARNING"}, warning)
-        STATUS["summary"] = _summary(report)
-        self.report({"INFO"}, STATUS["summary"])
-        return {"FINISHED"}
+            return _failed(self, error)
+        return _apply(self, job)
 
 
 class RADIOSITY_OT_cancel(bpy.types.Operator):
@@ -187,4 +217,46 @@ def _has_baked_light(obj, settings) -> bool:
     return settings.lightmap_uv_map in mesh.uv_layers or settings.attribute_name in mesh.color_attributes
 
 
-classes = (RADIOSITY_OT_bake, RADIOSITY_OT_cancel, RADIOSITY_OT_preview)
+classes = (RADIOSITY_OT_bake, RADIOSITY_OT_cancel, RADIOSITY_OT_preview, RADIOSITY_OT_update_light)
+
+
+def check_scene() -> None:
+    """Why the current scene's relighting cache no longer fits it ('' if it does, or there is none) into the
+    panel's status, so that the panel says so before Update Light is pressed: run a moment after the scene
+    changes (``watch``), comparing what the transport depends on now with the cache's key."""
+    scene = bpy.context.scene
+    setting = scene.radiosity.relight_cache if scene is not None else ""
+    STATUS["relight"] = ""
+    if not setting or STATUS["running"]:
+        return None
+    STATUS["checking"] = True  # the export's own depsgraph updates do not call for another check
+    try:
+        path = cache_path(setting)
+        if path not in SESSION and not os.path.isfile(path):
+            return None
+        changed = transport_key(export_scene(bpy.context).scene, scene.radiosity.user_settings()).changes(
+            load_cache(path)["key"])
+        STATUS["relight"] = f"Bake again: {', '.join(changed)} changed since the cache" if changed else ""
+    except BakeError as error:
+        STATUS["relight"] = str(error)
+    finally:
+        STATUS["checking"] = False
+    return None
+
+
+@bpy.app.handlers.persistent
+def _scene_changed(scene, depsgraph=None) -> None:
+    """A moment after the scene changes, ``check_scene`` (when a relighting cache is set and no check runs)."""
+    if STATUS["checking"] or not getattr(getattr(scene, "radiosity", None), "relight_cache", ""):
+        return
+    if not bpy.app.timers.is_registered(check_scene):
+        bpy.app.timers.register(check_scene, first_interval=1.0)
+
+
+def watch(on: bool) -> None:
+    """Check the relighting cache against the scene after every change (on), or stop."""
+    handlers = bpy.app.handlers.depsgraph_update_post
+    if on and _scene_changed not in handlers:
+        handlers.append(_scene_changed)
+    elif not on and _scene_changed in handlers:
+        handlers.remove(_scene_changed)

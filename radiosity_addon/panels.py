@@ -37,6 +37,10 @@ class RENDER_PT_radiosity(bpy.types.Panel):
         else:
             layout.operator("radiosity.bake", icon="RENDER_STILL")
             layout.operator("radiosity.preview", icon="HIDE_OFF")
+            if settings.relight_cache:
+                layout.operator("radiosity.update_light", icon="LIGHT")
+                if STATUS["relight"]:
+                    layout.label(text=STATUS["relight"], icon="ERROR")
             if settings.light_groups:
                 layout.prop(settings, "preview_light_group")
         if STATUS["summary"]:

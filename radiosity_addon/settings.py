@@ -88,6 +88,10 @@ SETTINGS = (
     Setting("light_groups", "Light Groups", False, "Also write the light of each light group (View Layer > Light "
             "Groups, set on lamps, emissive objects and the world) apart: lightmap pages and colour attributes named "
             "after the group ('ungrouped' for the rest); the main result is their sum", flag="--light-groups"),
+    Setting("relight_cache", "Relighting Cache", "", "Also write the bake split by light source into this file "
+            "(// is the .blend's folder), so that Update Light (--relight) applies later changes of lamps' "
+            "strength and colour, emission strengths, the world's strength and light groups without baking "
+            "again; empty writes none", flag="--cache", subtype="FILE_PATH"),
     Setting("attribute_name", "Attribute", "Radiosity", "Name of the colour attribute the bake writes (replaced "
             "on rebake)", flag="--attribute", section="vertex_colors"),
     Setting("vertex_domain", "Domain", "CORNER", "What the colour attribute holds a colour for",

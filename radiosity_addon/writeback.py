@@ -36,15 +36,14 @@ def _owned(mesh) -> set[str]:
     return {mesh.get(OWNED_ATTRIBUTE)} | set(mesh.get(OWNED_GROUP_ATTRIBUTES, ()))
 
 
-def write_vertex_colors(export: Export, solution, user: UserSettings,
-                        groups: dict | None = None) -> tuple[list[dict], list[str]]:
+def write_vertex_colors(export: Export, user: UserSettings, light_of,
+                        light_groups=()) -> tuple[list[dict], list[str]]:
     """Write the light of every baked object into its mesh's colour attribute (user.attribute_name, per corner or
-    per vertex: user.vertex_domain; indirect light by user.vertex_indirect); returns per-object report entries and
-    warnings. With ``groups`` (light group -> its Solution, core.bake.bake_light_groups) each group's light goes
-    into an attribute of its own (settings.light_group_output) and the main one holds their sum. An object that
-    shares its mesh with one written before gets its own copy of the mesh first (user.own_mesh_copies), as
-    Blender's Make Single User > Object Data does; else it keeps the first one's colours, with a warning."""
-    kept = export.scene_index_of_input()
+    per vertex: user.vertex_domain); ``light_of(item, obj)`` gives an object's (loops, 3) light per mesh loop and
+    that of each of the ``light_groups``, which go into attributes of their own (settings.light_group_output).
+    Returns per-object report entries and warnings. An object that shares its mesh with one written before gets
+    its own copy of the mesh first (user.own_mesh_copies), as Blender's Make Single User > Object Data does; else
+    it keeps the first one's colours, with a warning."""
     written, outputs, warnings, copied = {}, [], [], []
     for item in export.objects:
         if not item.writable:
@@ -60,16 +59,13 @@ def write_vertex_colors(export: Export, solution, user: UserSettings,
             obj.data = mesh = mesh.copy()
             entry["own_mesh_copy"] = mesh.name
             copied.append(item.name)
-        lit = lambda lighting: loop_light(item, lighting, kept, obj, user.vertex_indirect,
-                                          user.vertex_gather_samples)
-        parts = {light_group_output(user.attribute_name, group): lit(lighting)
-                 for group, lighting in (groups or {}).items()}
-        _write_attribute(mesh, user.attribute_name, sum(parts.values()) if parts else lit(solution),
-                         user.vertex_domain)
-        for name, light in parts.items():
-            _write_attribute(mesh, name, light, user.vertex_domain, group=True)
-        if parts:
-            entry["light_group_attributes"] = list(parts)
+        light, groups = light_of(item, obj)
+        _write_attribute(mesh, user.attribute_name, light, user.vertex_domain)
+        for group in light_groups:
+            _write_attribute(mesh, light_group_output(user.attribute_name, group), groups[group], user.vertex_domain,
+                             group=True)
+        if light_groups:
+            entry["light_group_attributes"] = [light_group_output(user.attribute_name, g) for g in light_groups]
         written[mesh.name] = item.name
         outputs.append(entry)
     if copied:
@@ -79,22 +75,25 @@ def write_vertex_colors(export: Export, solution, user: UserSettings,
     return outputs, warnings
 
 
-def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj, method: str,
-               gather_samples_per_edge: int) -> np.ndarray:
-    """(loops, 3) light per loop of the original mesh (core.vertex_light.corner_light: direct light traced at
-    each corner, indirect light by ``method``)."""
+def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj, method: str, gather_samples_per_edge: int,
+               lightings: list) -> np.ndarray:
+    """(G, loops, 3) light per loop of the original mesh for each of the G ``lightings`` (``solution`` or parts of
+    its light, core.vertex_light.corner_light: direct light traced at each corner, indirect light by ``method``,
+    the gather's rays shared)."""
     triangles = kept[item.first_triangle + np.arange(item.triangle_count)]
     if item.same_topology:
         valid = triangles >= 0
         corner_bary = np.tile(np.eye(3), (int(valid.sum()), 1))
-        values = corner_light(solution, np.repeat(triangles[valid], 3), corner_bary, method, gather_samples_per_edge)
-        light = np.zeros((len(obj.data.loops), 3))
-        light[item.corner_loops[valid].ravel()] = values
+        values = corner_light(solution, np.repeat(triangles[valid], 3), corner_bary, method, gather_samples_per_edge,
+                              lightings=lightings)
+        light = np.zeros((len(lightings), len(obj.data.loops), 3))
+        light[:, item.corner_loops[valid].ravel()] = values
         return np.nan_to_num(light)
-    return _projected_light(item, solution, triangles, obj, method, gather_samples_per_edge)
+    return _projected_light(item, solution, triangles, obj, method, gather_samples_per_edge, lightings)
 
 
-def _projected_light(item, solution, triangles, obj, method: str, gather_samples_per_edge: int) -> np.ndarray:
+def _projected_light(item, solution, triangles, obj, method: str, gather_samples_per_edge: int,
+                     lightings: list) -> np.ndarray:
     """Light for meshes whose modifiers changed the topology: each original corner takes the light of the nearest
     point of the object's baked surface along its normal, or a little way into its face where that line misses
     (core.vertex_light.projected_light)."""
@@ -110,7 +109,7 @@ def _projected_light(item, solution, triangles, obj, method: str, gather_samples
     centres = centres.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
     return projected_light(solution, triangles[triangles >= 0], world_positions(mesh, matrix)[vertex],
                            world_corner_normals(mesh, matrix), centres[polygon_of_loop],
-                           PROJECTION_REACH * solution.scene.size_m, method, gather_samples_per_edge)
+                           PROJECTION_REACH * solution.scene.size_m, method, gather_samples_per_edge, lightings)
 
 
 def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER", group: bool = False) -> None:

@@ -52,7 +52,7 @@ def test_corners_above_and_below_the_floor_take_its_light_and_those_beside_it_st
     solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
     points = np.array([[0.2, 0.3, 0.01], [-0.5, 0.1, -0.02], [0.9, -0.9, 0.0], [3.0, 0.0, 0.0]])
     normals = np.tile([0.0, 0.0, 1.0], (4, 1))
-    light = projected_light(solution, np.arange(2), points, normals, points, 0.1, method, 16)
+    light = projected_light(solution, np.arange(2), points, normals, points, 0.1, method, 16, [solution])[0]
     assert light[:3] == pytest.approx(STRENGTH / np.pi, rel=1e-3)
     assert light[3] == pytest.approx(0.0, abs=1e-12)  # its normal line misses the floor
 
@@ -66,8 +66,9 @@ def test_a_corner_beside_a_cut_back_edge_is_moved_into_its_face():
     solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
     corner, centroid = np.array([[1.01, 1.01, 0.0]]), np.array([[0.0, 0.0, 0.0]])
     up = np.array([[0.0, 0.0, 1.0]])
-    assert projected_light(solution, np.arange(2), corner, up, corner, 0.1, "interpolate", 16)[0, 0] == 0.0
-    light = projected_light(solution, np.arange(2), corner, up, centroid, 0.1, "interpolate", 16)
+    on_edge = projected_light(solution, np.arange(2), corner, up, corner, 0.1, "interpolate", 16, [solution])[0]
+    assert on_edge[0, 0] == 0.0
+    light = projected_light(solution, np.arange(2), corner, up, centroid, 0.1, "interpolate", 16, [solution])[0]
     assert light[0] == pytest.approx(STRENGTH / np.pi, rel=1e-3)
 
 

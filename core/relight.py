@@ -1,0 +1,161 @@
+"""Relighting without re-tracing: light is linear in emission (radiosity paper, section 4: B = (I - rho F)^-1 E),
+so a bake split by light source (each lamp, each emissive material, the world) is a basis. The same sources at
+other strengths and colours, grouped in any way, light the scene as a weighted sum of the basis: no ray is cast and
+nothing is solved again.
+
+A source's weight is, per RGB channel, its emission now over its emission when the basis was baked: a lamp's power
+(a sun's strength) x colour, a material's emitted radiance, the world's radiance. A channel baked dark holds no
+light to scale, so raising it is refused, naming the source; so is anything that changes where light goes
+(``TransportKey``): geometry, materials' reflectance, lamps' placement and shape, settings.
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .errors import SceneError
+from .scene import Scene, SunLight
+
+LAMP, MATERIAL, WORLD = "lamp", "material", "world"
+# A lamp's fields that do not move its light (the rest, placement and shape, do).
+LAMP_EMISSION_FIELDS = ("name", "power_w", "strength_w_m2", "color", "light_group")
+
+
+@dataclass(frozen=True)
+class Source:
+    """One source of light: its kind (LAMP, MATERIAL or WORLD), name (a lamp's or material's), emission (3,) per
+    channel (W, W m^-2 or W m^-2 sr^-1 by kind, times colour) and light group."""
+
+    kind: str
+    name: str
+    emission: tuple[float, float, float]
+    light_group: str
+
+    @property
+    def key(self) -> str:
+        """The source's own light group name in ``by_source``'s scene."""
+        return f"{self.kind}:{self.name}"
+
+
+def sources(scene: Scene) -> list[Source]:
+    """The scene's sources of light: lamps that are on, emissive materials in use, the world if it is bright."""
+    found = []
+    for light, factor in zip(scene.lights, scene.light_factor):
+        power = light.strength_w_m2 if isinstance(light, SunLight) else light.power_w
+        emission = tuple(float(power * factor * c) for c in light.color)
+        if max(emission) > 0:
+            found.append(Source(LAMP, light.name, emission, light.light_group))
+    for index in np.unique(scene.material_index):
+        material = scene.materials[index]
+        if max(material.emitted_radiance) > 0:
+            found.append(Source(MATERIAL, _material_name(scene, index), tuple(map(float, material.emitted_radiance)),
+                                material.light_group))
+    if max(scene.world.radiance) > 0:
+        found.append(Source(WORLD, "world", tuple(map(float, scene.world.radiance)), scene.world.light_group))
+    return found
+
+
+def _material_name(scene: Scene, index: int) -> str:
+    """A material's name, told apart from the same material emitting in another light group."""
+    material = scene.materials[index]
+    return f"{material.name} [{material.light_group}]" if material.light_group else material.name
+
+
+def by_source(scene: Scene) -> Scene:
+    """The scene with each source in a light group of its own (``Source.key``): core.bake.bake_light_groups of
+    it bakes the basis."""
+    split = copy.copy(scene)
+    split.lights = [replace(light, light_group=f"{LAMP}:{light.name}") for light in scene.lights]
+    split.materials = [replace(material, light_group=f"{MATERIAL}:{_material_name(scene, index)}")
+                       for index, material in enumerate(scene.materials)]
+    split.world = replace(scene.world, light_group=f"{WORLD}:world")
+    return split
+
+
+def weights(baked: list[Source], now: list[Source]) -> dict[str, np.ndarray]:
+    """(3,) weight of each baked source (by ``Source.key``) for the sources ``now``: emission now over emission
+    baked, per channel; 0 for a source that is off now. SceneError names a source that is new or brighter in a
+    channel baked dark."""
+    current = {source.key: source for source in now}
+    new = [source for key, source in current.items() if key not in {s.key for s in baked}]
+    if new:
+        raise SceneError(f"The relighting cache has no light of {_named(new[0])}, which emits now and did not when "
+                         "it was baked (or was off): bake again.")
+    out = {}
+    for source in baked:
+        emission = np.asarray(current[source.key].emission if source.key in current else (0.0,) * 3)
+        before = np.asarray(source.emission)
+        if ((before == 0) & (emission > 0)).any():
+            raise SceneError(f"The relighting cache holds no light in a colour channel of {_named(source)} that it "
+                             "was baked dark in (a colour with a zero channel): bake again.")
+        out[source.key] = np.divide(emission, before, out=np.zeros(3), where=before > 0)
+    return out
+
+
+def _named(source: Source) -> str:
+    return {LAMP: f"lamp '{source.name}'", MATERIAL: f"material '{source.name}'", WORLD: "the world"}[source.kind]
+
+
+def mix(basis: dict[str, np.ndarray], weight: dict[str, np.ndarray], members: list[str]) -> np.ndarray:
+    """The light of the sources ``members`` (keys; none: dark) at their weights: the sum of weight x basis, the
+    weights (3,) applied to the last axis's RGB channels."""
+    total = np.zeros_like(next(iter(basis.values())))
+    for key in members:
+        total += basis[key] * weight[key].astype(total.dtype)
+    return total
+
+
+@dataclass(frozen=True)
+class TransportKey:
+    """What a basis depends on besides emission, as digests: the geometry (triangles, what is solved, shading
+    normals, texture UVs), the reflectance of every triangle and of each material by name, each lamp's placement
+    and shape, and the settings. Lamps that are removed, or whose only change is emission or light group, keep
+    the basis."""
+
+    geometry: str
+    reflectance: str
+    materials: dict
+    lamps: dict
+    settings: str
+
+    @classmethod
+    def of(cls, scene: Scene, settings: dict) -> "TransportKey":
+        geometry = _digest(scene.triangles, scene.casts_only, scene.corner_normals, scene.triangle_uv,
+                           scene.terminator_offset)
+        materials = {m.name: _digest(np.asarray(m.reflectance),
+                                     m.texture.pixels if m.texture is not None else np.zeros(0))
+                     for m in scene.materials}
+        digests = sorted(set(materials.values()))
+        code = np.array([digests.index(materials[m.name]) for m in scene.materials])[scene.material_index]
+        reflectance = _digest(np.frombuffer(" ".join(digests).encode(), dtype=np.uint8), code)
+        lamps = {light.name: repr(type(light).__name__) + repr(
+            {k: v for k, v in vars(light).items() if k not in LAMP_EMISSION_FIELDS}) for light in scene.lights}
+        return cls(geometry, reflectance, materials, lamps, repr(sorted(settings.items())))
+
+    def changes(self, baked: "TransportKey") -> list[str]:
+        """What differs from the ``baked`` key, in words (empty when the basis still holds)."""
+        found = []
+        if self.geometry != baked.geometry:
+            found.append("the geometry (meshes, their placement, shading or what is baked)")
+        changed = [name for name in sorted(set(self.materials) & set(baked.materials))
+                   if self.materials[name] != baked.materials[name]]
+        found += [f"the reflectance of material '{name}'" for name in changed]
+        if self.reflectance != baked.reflectance and not changed:
+            found.append("which materials the meshes have")
+        found += [f"lamp '{name}' (moved or reshaped)" for name in sorted(set(self.lamps) & set(baked.lamps))
+                  if self.lamps[name] != baked.lamps[name]]
+        if self.settings != baked.settings:
+            found.append("the bake settings")
+        return found
+
+
+def _digest(*arrays) -> str:
+    hashed = hashlib.sha256()
+    for array in arrays:
+        array = np.ascontiguousarray(array)
+        hashed.update(repr((array.dtype.str, array.shape)).encode())
+        hashed.update(array.tobytes())
+    return hashed.hexdigest()

@@ -1,0 +1,132 @@
+"""Relighting from a cache: a bake split by light source, mixed again for new lamp strengths and colours, world
+strength and light groups, equals a new bake of the edited scene; anything else that changed is refused by name."""
+import json
+
+import bpy
+import numpy as np
+import pytest
+
+from blender_setup import corner_colors, lightmap_bake, run_cli
+from test_light_groups_blender import grouped_scene
+
+
+def relight(tmp_path, cache, **settings):
+    """Update Light through the job API: (the job, the report)."""
+    from radiosity_baker.radiosity_addon import job
+    from radiosity_baker.radiosity_addon.settings import UserSettings
+    user = UserSettings(**{"quality": "MEDIUM", "target": "BOTH", "lightmap_resolution": 64, **settings})
+    relit = job.relight_job(bpy.context, user, str(tmp_path / "relit"), str(cache))
+    return relit, job.write_outputs(relit)
+
+
+def edit_lights():
+    """The sun-off / warmer lamps / half world edit: lamp 'left' off, the right one warmer, the world halved."""
+    bpy.data.objects["Point"].data.energy = 0.0
+    bpy.data.objects["Point.001"].data.color = (1.0, 0.45, 0.2)
+    background = bpy.context.scene.world.node_tree.nodes["Background"]
+    background.inputs["Strength"].default_value *= 0.5
+
+
+def test_relight_equals_a_new_bake(tmp_path, extension):
+    """Baked with a cache, the lights edited, then Update Light: the lightmap and the colour attributes equal a
+    new bake of the edited scene within 0.1% on the mean (the issue's bound), and each group's light is its
+    share of it; no ray was cast (the relight took under a second)."""
+    grouped_scene()
+    cache = tmp_path / "room.rlcache"
+    lightmap_bake("medium", tmp_path / "baked", target="BOTH", lightmap_resolution=64, light_groups=True,
+                  relight_cache=str(cache))
+    assert cache.is_file()
+    edit_lights()
+    _, report = relight(tmp_path, cache, light_groups=True)
+    assert report["timings"]["relight"] < 1.0
+    floor = bpy.data.objects["Floor"].data
+    relit_corners = corner_colors(floor, "Radiosity")
+    relit_image = np.array(bpy.data.images["Radiosity Lightmap"].pixels[:]).reshape(64, 64, 4)[..., :3]
+    groups = {name: corner_colors(floor, f"Radiosity {name}") for name in ("left", "right", "sky", "ungrouped")}
+    assert groups["left"].max() == 0.0
+    assert sum(groups.values()) == pytest.approx(relit_corners, rel=1e-5, abs=1e-6)
+    fresh, _, _ = lightmap_bake("medium", tmp_path / "fresh", target="BOTH", lightmap_resolution=64,
+                                lightmap_image="Fresh", attribute_name="Fresh")
+    again = corner_colors(floor, "Fresh")
+    assert np.abs(relit_corners - again).sum() < 0.001 * again.sum()
+    covered = fresh.lightmaps[0].covered
+    page = fresh.lightmaps[0].light
+    assert np.abs(relit_image - page)[covered].sum() < 0.001 * page[covered].sum()
+
+
+def test_twice_the_light_relights_to_exactly_twice(tmp_path, extension):
+    """Every lamp and the world at twice their strength: the relit outputs are exactly twice the baked ones."""
+    grouped_scene()
+    cache = tmp_path / "room.rlcache"
+    baked, _, _ = lightmap_bake("draft", tmp_path / "baked", target="BOTH", lightmap_resolution=64,
+                                relight_cache=str(cache))
+    floor = bpy.data.objects["Floor"].data
+    before = corner_colors(floor, "Radiosity")
+    for obj in bpy.data.objects:
+        if obj.type == "LIGHT":
+            obj.data.energy *= 2
+    bpy.context.scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value *= 2
+    relight(tmp_path, cache, quality="DRAFT")
+    assert corner_colors(floor, "Radiosity") == pytest.approx(2 * before, rel=1e-6, abs=1e-9)
+    image = np.array(bpy.data.images["Radiosity Lightmap"].pixels[:]).reshape(64, 64, 4)[..., :3]
+    assert image == pytest.approx(2 * baked.lightmaps[0].light, rel=1e-3, abs=1e-6)  # through a half-float EXR
+
+
+@pytest.mark.parametrize("edit, named", [
+    (lambda: bpy.data.objects["Roof"].location.__setitem__(2, 1.2), "geometry"),
+    (lambda: bpy.data.materials["Floor material"].node_tree.nodes["Principled BSDF"].inputs["Base Color"]
+     .__setattr__("default_value", (0.9, 0.1, 0.1, 1.0)), "material 'Floor material'"),
+    (lambda: bpy.data.objects["Point"].location.__setitem__(0, 0.0), "lamp 'Point'"),
+    (lambda: bpy.ops.object.light_add(type="POINT", location=(0, 0, 0.5)), "lamp 'Point.003'"),
+])
+def test_a_stale_cache_is_refused_naming_what_changed(tmp_path, extension, edit, named):
+    grouped_scene()
+    cache = tmp_path / "room.rlcache"
+    lightmap_bake("draft", tmp_path / "baked", target="BOTH", lightmap_resolution=64, relight_cache=str(cache))
+    edit()
+    from radiosity_baker.core import SceneError
+    with pytest.raises(SceneError, match=named):
+        relight(tmp_path, cache, quality="DRAFT")
+
+
+def test_the_command_line_bakes_a_cache_and_relights_from_it(tmp_path, extension):
+    """--cache writes the cache beside the bake; --relight on the edited file writes the relit outputs; on a file
+    whose geometry moved it exits 4 naming the geometry."""
+    grouped_scene()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "in.blend"))
+    code, stderr = run_cli(tmp_path / "in.blend", "-o", tmp_path / "baked.blend", "--quality", "draft",
+                           "--cache", tmp_path / "in.rlcache", "--report", tmp_path / "baked.json")
+    assert code == 0, stderr
+    assert json.loads((tmp_path / "baked.json").read_text())["relight_cache"] == str(tmp_path / "in.rlcache")
+    edit_lights()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "edited.blend"))
+    code, stderr = run_cli(tmp_path / "edited.blend", "-o", tmp_path / "relit.blend", "--quality", "draft",
+                           "--relight", tmp_path / "in.rlcache", "--report", tmp_path / "relit.json")
+    assert code == 0, stderr
+    assert "relight" in json.loads((tmp_path / "relit.json").read_text())["timings"]
+    bpy.data.objects["Roof"].location.z = 1.5
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "moved.blend"))
+    code, stderr = run_cli(tmp_path / "moved.blend", "-o", tmp_path / "nope.blend", "--quality", "draft",
+                           "--relight", tmp_path / "in.rlcache")
+    assert code == 4 and "geometry" in stderr
+    assert not (tmp_path / "nope.blend").exists()
+
+
+def test_the_panel_says_when_the_cache_no_longer_fits(tmp_path, extension):
+    """The panel's check (run a moment after each change of the scene) is quiet after a light edit and names the
+    geometry once a mesh moved; Update Light then refuses."""
+    scene = grouped_scene()
+    settings = scene.radiosity
+    settings.quality, settings.target, settings.lightmap_resolution = "DRAFT", "LIGHTMAP", 64
+    settings.lightmap_folder, settings.relight_cache = str(tmp_path), str(tmp_path / "room.rlcache")
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    operators = extension.radiosity_addon.operators
+    edit_lights()
+    operators.check_scene()
+    assert operators.STATUS["relight"] == ""
+    assert bpy.ops.radiosity.update_light() == {"FINISHED"}
+    bpy.data.objects["Roof"].location.z = 1.3
+    operators.check_scene()
+    assert "geometry" in operators.STATUS["relight"]
+    with pytest.raises(RuntimeError, match="geometry"):
+        bpy.ops.radiosity.update_light()
