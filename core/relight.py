@@ -17,61 +17,20 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import SceneError
-from .scene import Scene, SunLight
+from .scene import LAMP, MATERIAL, WORLD, Scene, Source, material_name, source_key
 
-LAMP, MATERIAL, WORLD = "lamp", "material", "world"
 # A lamp's fields that do not move its light (the rest, placement and shape, do).
 LAMP_EMISSION_FIELDS = ("name", "power_w", "strength_w_m2", "color", "light_group")
-
-
-@dataclass(frozen=True)
-class Source:
-    """One source of light: its kind (LAMP, MATERIAL or WORLD), name (a lamp's or material's), emission (3,) per
-    channel (W, W m^-2 or W m^-2 sr^-1 by kind, times colour) and light group."""
-
-    kind: str
-    name: str
-    emission: tuple[float, float, float]
-    light_group: str
-
-    @property
-    def key(self) -> str:
-        """The source's own light group name in ``by_source``'s scene."""
-        return f"{self.kind}:{self.name}"
-
-
-def sources(scene: Scene) -> list[Source]:
-    """The scene's sources of light: lamps that are on, emissive materials in use, the world if it is bright."""
-    found = []
-    for light, factor in zip(scene.lights, scene.light_factor):
-        power = light.strength_w_m2 if isinstance(light, SunLight) else light.power_w
-        emission = tuple(float(power * factor * c) for c in light.color)
-        if max(emission) > 0:
-            found.append(Source(LAMP, light.name, emission, light.light_group))
-    for index in np.unique(scene.material_index):
-        material = scene.materials[index]
-        if max(material.emitted_radiance) > 0:
-            found.append(Source(MATERIAL, _material_name(scene, index), tuple(map(float, material.emitted_radiance)),
-                                material.light_group))
-    if max(scene.world.radiance) > 0:
-        found.append(Source(WORLD, "world", tuple(map(float, scene.world.radiance)), scene.world.light_group))
-    return found
-
-
-def _material_name(scene: Scene, index: int) -> str:
-    """A material's name, told apart from the same material emitting in another light group."""
-    material = scene.materials[index]
-    return f"{material.name} [{material.light_group}]" if material.light_group else material.name
 
 
 def by_source(scene: Scene) -> Scene:
     """The scene with each source in a light group of its own (``Source.key``): core.bake.bake_light_groups of
     it bakes the basis."""
     split = copy.copy(scene)
-    split.lights = [replace(light, light_group=f"{LAMP}:{light.name}") for light in scene.lights]
-    split.materials = [replace(material, light_group=f"{MATERIAL}:{_material_name(scene, index)}")
+    split.lights = [replace(light, light_group=source_key(LAMP, light.name)) for light in scene.lights]
+    split.materials = [replace(material, light_group=source_key(MATERIAL, material_name(scene, index)))
                        for index, material in enumerate(scene.materials)]
-    split.world = replace(scene.world, light_group=f"{WORLD}:world")
+    split.world = replace(scene.world, light_group=source_key(WORLD, WORLD))
     return split
 
 

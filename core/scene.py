@@ -246,13 +246,7 @@ class Scene:
     def light_groups(self) -> list[str]:
         """The light groups that emit light here (Cycles' light groups: lamps, emissive materials and the world
         each belong to one, or to none, ""), sorted, "" first when anything ungrouped emits."""
-        emitting = [light.light_group for light, factor in zip(self.lights, self.light_factor)
-                    if _light_power(light) * factor > 0]
-        emitting += [self.materials[m].light_group for m in np.unique(self.material_index)
-                     if max(self.materials[m].emitted_radiance) > 0]
-        if max(self.world.radiance) > 0:
-            emitting.append(self.world.light_group)
-        return sorted(set(emitting))
+        return sorted({source.light_group for source in sources(self)})
 
     def lit_by(self, group: str) -> "Scene":
         """This scene with only the light of light group ``group`` ("" the ungrouped): the others' lamps with
@@ -271,6 +265,54 @@ class Scene:
         """Diagonal of the scene's bounding box in metres (sets ray offsets)."""
         points = self.triangles.reshape(-1, 3)
         return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+
+
+LAMP, MATERIAL, WORLD = "lamp", "material", "world"
+
+
+@dataclass(frozen=True)
+class Source:
+    """One source of light: its kind (LAMP, MATERIAL or WORLD), name (a lamp's or material's), emission (3,) per
+    channel (W, W m^-2 or W m^-2 sr^-1 by kind, times colour) and light group."""
+
+    kind: str
+    name: str
+    emission: tuple[float, float, float]
+    light_group: str
+
+    @property
+    def key(self) -> str:
+        """The source's name among all kinds (its light group in core.relight.by_source's scene)."""
+        return source_key(self.kind, self.name)
+
+
+def sources(scene: Scene) -> list[Source]:
+    """The scene's sources of light: lamps that are on, emissive materials in use, the world if it is bright."""
+    found = []
+    for light, factor in zip(scene.lights, scene.light_factor):
+        power = light.strength_w_m2 if isinstance(light, SunLight) else light.power_w
+        emission = tuple(float(power * factor * c) for c in light.color)
+        if max(emission) > 0:
+            found.append(Source(LAMP, light.name, emission, light.light_group))
+    for index in np.unique(scene.material_index):
+        material = scene.materials[index]
+        if max(material.emitted_radiance) > 0:
+            found.append(Source(MATERIAL, material_name(scene, index), tuple(map(float, material.emitted_radiance)),
+                                material.light_group))
+    if max(scene.world.radiance) > 0:
+        found.append(Source(WORLD, WORLD, tuple(map(float, scene.world.radiance)), scene.world.light_group))
+    return found
+
+
+def source_key(kind: str, name: str) -> str:
+    """A source's name among all kinds: "lamp:<name>", "material:<name>", "world:world"."""
+    return f"{kind}:{name}"
+
+
+def material_name(scene: Scene, index: int) -> str:
+    """A material's name, told apart from the same material emitting in another light group."""
+    material = scene.materials[index]
+    return f"{material.name} [{material.light_group}]" if material.light_group else material.name
 
 
 def _per_triangle(values, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:

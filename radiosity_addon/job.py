@@ -15,7 +15,8 @@ import numpy as np
 
 from ..core import BakeSettings, SceneError, bake
 from ..core.bake import bake_light_groups
-from ..core.relight import by_source, mix, sources, weights
+from ..core.relight import by_source, mix, weights
+from ..core.scene import sources
 from ..core.atlas import AtlasSize, uv_area
 from ..core.geometry import triangle_areas
 from ..core.lightmap import Lightmap, LightmapSettings, bake_lightmap

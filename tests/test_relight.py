@@ -7,7 +7,8 @@ import pytest
 
 from core import SceneError, World, bake
 from core.bake import bake_light_groups
-from core.relight import TransportKey, by_source, mix, sources, weights
+from core.relight import TransportKey, by_source, mix, weights
+from core.scene import sources
 from test_light_groups import GLOW, KEY, LAMPS, SETTINGS, room
 
 
