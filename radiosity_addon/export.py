@@ -58,6 +58,8 @@ class Export:
         return kept
 
 
+RADIOSITY_MESH_TAG = "radiosity_mesh"  # marks the Radiosity Mesh a bake wrote: a copy of the surfaces, not exported
+
 # Per-triangle arrays of a core.Scene, gathered object by object; the first three hold a value per corner.
 CORNER_COLUMNS = ("triangles", "triangle_uv", "corner_normals")
 COLUMNS = CORNER_COLUMNS + ("material_index", "casts_only", "object_index", "terminator_offset")
@@ -74,7 +76,7 @@ def export_scene(context) -> Export:
         evaluated = instance.object
         original = evaluated.original
         owner = instance.parent.original if instance.is_instance and instance.parent else original
-        if owner.hide_render or original.hide_render:
+        if owner.hide_render or original.hide_render or original.get(RADIOSITY_MESH_TAG):
             continue
         if evaluated.type == "LIGHT":
             lights.append(_light(evaluated, np.array(instance.matrix_world), groups.of(original)))

@@ -13,12 +13,11 @@ import numpy as np
 
 from ..core import SceneError
 from ..core.vertex_light import corner_light, projected_light
-from .export import Export, ExportedObject, world_corner_normals, world_positions
+from .export import RADIOSITY_MESH_TAG, Export, ExportedObject, world_corner_normals, world_positions
 from .settings import UserSettings, light_group_output
 
 OWNED_ATTRIBUTE = "radiosity_attribute"
 OWNED_GROUP_ATTRIBUTES = "radiosity_group_attributes"
-RADIOSITY_MESH_TAG = "radiosity_mesh"
 PROJECTION_REACH = 0.05  # of the scene's size: how far a corner of a modified mesh looks for its baked surface
 
 
