@@ -40,36 +40,55 @@ def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, norma
     return irradiance
 
 
-def one_light_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray, offset_m: float,
-                         seed: int, world: bool = True) -> np.ndarray:
-    """(m, 3) an unbiased estimate of ``direct_irradiance`` with one light sample per point: each point casts its
-    shadow ray to one light, chosen in proportion to the lights' unshadowed irradiance there (a share
-    UNIFORM_CHOICE of the choices uniform, so that no light that reaches a point is left out), and divides by the
-    chance of that choice (light selection: Shirley, Wang & Zimmerman 1996). For final-gather hits, where the 64
-    rays of a texel average the choices out, and a scene's many lamps then cost one shadow ray, not one each. The
-    choice ignores the scene's ``light_factor``, which scales what the chosen light brings: the samples of a light
-    group's scene (core.scene.Scene.lit_by) are the whole scene's, each landing in its light's group."""
+def sampled_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray, offset_m: float,
+                       seed: int, world: bool = True, exact_lights: int = 0) -> np.ndarray:
+    """(m, 3) an unbiased estimate of ``direct_irradiance`` with one shadow ray per point to each of its
+    ``exact_lights`` brightest lights (by their unshadowed irradiance there) and one more to one of the others,
+    chosen in proportion to that irradiance (a share UNIFORM_CHOICE of the choices uniform, so that no light that
+    reaches a point is left out) and divided by the chance of that choice (light selection: Shirley, Wang &
+    Zimmerman 1996; the brightest tested first, the rest estimated: Ward 1991, adaptive shadow testing). For
+    final-gather hits: with ``exact_lights`` 0, where the 64 rays of a texel average the choices out, a scene's
+    many lamps cost one shadow ray, not one each; a scene with no more lamps than ``exact_lights`` is sampled
+    with no choice at all. The ranking and the choice ignore the scene's ``light_factor``, which scales what a
+    light brings: the samples of a light group's scene (core.scene.Scene.lit_by) are the whole scene's, each
+    landing in its light's group."""
     irradiance = np.zeros((len(points), 3))
     lights = scene.lights
     if lights and len(points):
         colours = np.array([light.color for light in lights], dtype=np.float64)
         unshadowed = np.stack([_SAMPLERS[type(light)](light, None, points, normals, offset_m, 1, seed, None)
                                for light in lights], axis=1) * colours.sum(axis=1)
-        total = unshadowed.sum(axis=1, keepdims=True)
-        share = np.where(total > 0, unshadowed / np.maximum(total, 1e-300), 1.0 / len(lights))
-        chance = UNIFORM_CHOICE / len(lights) + (1.0 - UNIFORM_CHOICE) * share
+        exact = np.zeros(unshadowed.shape, dtype=bool)
+        if exact_lights > 0:
+            brightest = np.argsort(-unshadowed, axis=1, kind="stable")[:, :exact_lights]
+            np.put_along_axis(exact, brightest, True, axis=1)
+        chance = _choice_chance(np.where(exact, 0.0, unshadowed), ~exact)
         draw = np.random.default_rng(seed).random(len(points))
         pick = np.minimum((draw[:, None] > np.cumsum(chance, axis=1)).sum(axis=1), len(lights) - 1)
+        picked = np.zeros(exact.shape)
+        picked[np.arange(len(points)), pick] = np.where(exact.all(axis=1), 0.0, 1.0) / np.maximum(
+            chance[np.arange(len(points)), pick], 1e-300)
+        scale = np.where(exact, 1.0, picked)  # each light's weight per point: 1 tested, 1/chance chosen, else 0
         for index, (light, factor) in enumerate(zip(lights, scene.light_factor)):
-            rows = np.flatnonzero(pick == index)
+            rows = np.flatnonzero(scale[:, index] > 0)
             if factor == 0 or len(rows) == 0:
                 continue
             scalar = _SAMPLERS[type(light)](light, caster, points[rows], normals[rows], offset_m, 1,
                                             seed + 7919 * index, None)
-            irradiance[rows] += (scalar / chance[rows, index])[:, None] * (factor * colours[index])
+            irradiance[rows] += (scalar * scale[rows, index])[:, None] * (factor * colours[index])
     if world:
         irradiance += _world(scene, caster, points, normals, offset_m, 1, seed)
     return irradiance
+
+
+def _choice_chance(unshadowed: np.ndarray, open_to_choice: np.ndarray) -> np.ndarray:
+    """(m, L) chance of choosing each light at each point among those ``open_to_choice``: a share UNIFORM_CHOICE
+    uniform over them, the rest in proportion to ``unshadowed`` (uniform where that is 0 for all of them)."""
+    count = np.maximum(open_to_choice.sum(axis=1, keepdims=True), 1)
+    uniform = open_to_choice / count
+    total = unshadowed.sum(axis=1, keepdims=True)
+    share = np.where(total > 0, unshadowed / np.maximum(total, 1e-300), uniform)
+    return UNIFORM_CHOICE * uniform + (1.0 - UNIFORM_CHOICE) * share
 
 
 def _world(scene: Scene, caster, points, normals, offset_m, samples_per_edge, seed) -> np.ndarray:

@@ -14,7 +14,7 @@ import numpy as np
 
 from .cluster_tree import build_tree
 from .clusters import SAMPLES, cluster_pieces
-from .analytic_lights import direct_irradiance, one_light_irradiance
+from .analytic_lights import direct_irradiance, sampled_irradiance
 from .links import LinkSources, link_factors
 from .mesh import build_mesh, node_reflectance
 from .raycast import RayCaster
@@ -49,17 +49,19 @@ class DirectLighting:
         return len(self.exitance)
 
     def irradiance(self, points: np.ndarray, normals: np.ndarray, samples_per_edge: int | None = None,
-                   seed_offset: int = 0, lift=None, world: bool = True, one_light: bool = False) -> np.ndarray:
+                   seed_offset: int = 0, lift=None, world: bool = True, sampled: bool = False,
+                   exact_lights: int = 0) -> np.ndarray:
         """(m, 3) direct irradiance at points with unit normals; ``samples_per_edge`` overrides the shadow-ray
         count (s^2 per light and emitter); ``seed_offset`` is added to the bake's seed; ``lift``
         (core.terminator.ShadowLift) starts the shadow rays towards lamps and emissive surfaces from smooth-shaded
-        points on their smooth surface (core.terminator); ``world`` False leaves the world out; ``one_light``:
-        one shadow ray per point to one of the analytic lights, chosen by importance (core.analytic_lights
-        .one_light_irradiance; unbiased, noisier), with one sample per edge."""
+        points on their smooth surface (core.terminator); ``world`` False leaves the world out; ``sampled``:
+        one shadow ray per point to each of its ``exact_lights`` brightest analytic lights and one to one of the
+        others, chosen by importance (core.analytic_lights.sampled_irradiance; unbiased, noisier), with one
+        sample per edge."""
         samples = samples_per_edge or self.samples_per_edge
-        if one_light:
-            total = one_light_irradiance(self.scene, self.caster, points, normals, self.offset_m,
-                                         self.seed + seed_offset, world)
+        if sampled:
+            total = sampled_irradiance(self.scene, self.caster, points, normals, self.offset_m,
+                                       self.seed + seed_offset, world, exact_lights)
         else:
             total = direct_irradiance(self.scene, self.caster, points, normals, self.offset_m, samples,
                                       self.seed + seed_offset, lift, world)

@@ -64,24 +64,28 @@ def gather_pays(solution) -> bool:
 
 def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.ndarray, samples_per_edge: int,
                  offset_m: float, seed: int, face_normals: np.ndarray | None = None, near_m: float = 0.0,
-                 near_samples_per_edge: int = 0, workers: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                 near_samples_per_edge: int = 0, workers: int = 1,
+                 exact_lights: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """(m, 3) indirect and world light (irradiance / pi) at (m, q, 3) points (q points per texel, used in turn by
     its rays) with (m, 3) unit (shading) normals, from s^2 gather rays each, and the (m, 3) variance of that mean
     (the rays' sample variance over their count, for core.denoise); ``face_normals`` (m, 3), where they differ
     from the shading normals, cut off the directions below the face. Where a ray lands within ``near_m`` of its
     origin, the light there is gathered again by ``near_samples_per_edge``^2 rays instead of taken from the
     element: close by, in a concave corner, the element's one value is not the light of the spot the ray meets.
-    Chunks of at most RAYS_PER_CHUNK rays (bounded memory), ``workers`` of them side by side (core.parallel),
-    each seeded by its first point."""
+    Where a ray lands, the lamps' light comes by one shadow ray to one lamp chosen by importance, after one to
+    each of the ``exact_lights`` brightest there (Solution.reflected_radiosity): a scene with no more lamps than
+    that has none of the choice's noise at those hits (the second gather near by keeps one lamp per ray: it
+    casts most of the shadow rays and brings the least light). Chunks of at most RAYS_PER_CHUNK rays (bounded
+    memory), ``workers`` of them side by side (core.parallel), each seeded by its first point."""
     light, variance = final_gather_parts([solution], caster, points, normals, samples_per_edge, offset_m, seed,
-                                         face_normals, near_m, near_samples_per_edge, workers)
+                                         face_normals, near_m, near_samples_per_edge, workers, exact_lights)
     return light[0], variance
 
 
 def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
                        samples_per_edge: int, offset_m: float, seed: int, face_normals: np.ndarray | None = None,
-                       near_m: float = 0.0, near_samples_per_edge: int = 0,
-                       workers: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                       near_m: float = 0.0, near_samples_per_edge: int = 0, workers: int = 1,
+                       exact_lights: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """``final_gather`` of several solutions of the same surfaces, lit by parts of the light (light groups,
     core.bake.bake_light_groups), along the same rays: (G, m, 3) each one's light, and the (m, 3) variance of the
     mean of their sum (the rays' sample variance of the summed light over their count)."""
@@ -91,7 +95,7 @@ def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, n
     chunks = [slice(start, min(start + step, len(points))) for start in range(0, len(points), step)]
     gathered = lambda chunk: _gather_chunk(solutions, caster, points[chunk], normals[chunk], faces[chunk],
                                            samples_per_edge, offset_m, seed + chunk.start, near_m,
-                                           near_samples_per_edge)
+                                           near_samples_per_edge, exact_lights)
     light, variance = np.zeros((len(solutions), len(points), 3)), np.zeros((len(points), 3))
     for chunk, (chunk_light, chunk_variance) in zip(chunks, ordered_map(gathered, chunks, workers)):
         light[:, chunk], variance[chunk] = chunk_light, chunk_variance
@@ -99,7 +103,7 @@ def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, n
 
 
 def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_edge, offset_m, seed, near_m,
-                  near_samples_per_edge):
+                  near_samples_per_edge, exact_lights):
     solution = solutions[0]  # the surfaces are the same in each
     count, rays = len(points), samples_per_edge ** 2
     local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
@@ -119,10 +123,10 @@ def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_
     far, close = landed[~near], landed[near]
     radiosity = np.zeros((len(solutions), len(hit), 3))
     for part, lit in zip(radiosity, solutions):
-        part[far] = lit.reflected_radiosity(hit[far], bary[far], side[~near], seed)
+        part[far] = lit.reflected_radiosity(hit[far], bary[far], side[~near], seed, exact_lights=exact_lights)
         if len(close):
             part[close] = lit.reflected_radiosity(hit[close], bary[close], side[near], seed + len(hit),
-                                                  gather_samples_per_edge=near_samples_per_edge)
+                                                  near_samples_per_edge, exact_lights)
         part[(hit < 0) & above] = np.pi * np.asarray(lit.scene.world.radiance, dtype=np.float64)
     per_ray = radiosity.reshape(len(solutions), count, rays, 3) / np.pi
     return per_ray.mean(axis=2), per_ray.sum(axis=0).var(axis=1) / rays

@@ -147,7 +147,7 @@ class Scene:
                      (core.terminator; 0 turns the smooth-surface start off); default 0.1, Blender's.
     light_factor:    (L,) float >= 0, optional: each lamp's light is its power x this (default 1). A light group's
                      scene (``lit_by``) sets the other lamps' to 0 and keeps their power, by which the lamps
-                     sampled one at a time are chosen (core.analytic_lights.one_light_irradiance): each such sample
+                     sampled one at a time are chosen (core.analytic_lights.sampled_irradiance): each such sample
                      then lands in exactly one group.
 
     Zero-area triangles are dropped on construction; ``dropped_triangles`` counts them and

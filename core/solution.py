@@ -197,14 +197,16 @@ class Solution:
         return self._interpolate(self._indirect_light(), points, normals, scene_triangle, barycentric)
 
     def reflected_radiosity(self, scene_triangle: np.ndarray, barycentric: np.ndarray, side: np.ndarray,
-                            seed_offset: int = 0, gather_samples_per_edge: int = 0) -> np.ndarray:
+                            seed_offset: int = 0, gather_samples_per_edge: int = 0,
+                            exact_lights: int = 0) -> np.ndarray:
         """(m, 3) reflected radiosity rho H (W m^-2, emission excluded) on the given side (0 front, 1 back) of
         surface points: what a final-gather ray sees where it lands. The first bounce is exact at the point: the
         reflectance there (texture included) x (direct irradiance by one shadow ray to one light chosen by
-        importance, ``seed_offset`` shifting their seed, + the indirect irradiance of the element side under it).
-        So a sunlit patch and the shade beside it on one coarse element reflect what each receives (two-pass
-        methods, radiosity paper section 10). With ``gather_samples_per_edge`` s > 0 the indirect irradiance is
-        gathered there too, by s^2 rays (core.gather.final_gather, the world by its escaping rays), instead of
+        importance, after one to each of the ``exact_lights`` brightest there, ``seed_offset`` shifting their
+        seed, + the indirect irradiance of the element side under it). So a sunlit patch and the shade beside it
+        on one coarse element reflect what each receives (two-pass methods, radiosity paper section 10). With
+        ``gather_samples_per_edge`` s > 0 the indirect irradiance is gathered there too, by s^2 rays
+        (core.gather.final_gather, the world by its escaping rays, one light chosen where each lands), instead of
         taken from the element. 0 on dead sides and unsolved triangles."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         barycentric = np.asarray(barycentric, dtype=np.float64)
@@ -223,7 +225,8 @@ class Solution:
                                             self.offset_m, seed_offset)[0]
         else:
             indirect = np.pi * self._indirect_light()[element[alive], face[alive]]
-        irradiance = self.direct.irradiance(points, normals, 1, seed_offset, one_light=True, world=not gathered)
+        irradiance = self.direct.irradiance(points, normals, 1, seed_offset, world=not gathered, sampled=True,
+                                            exact_lights=exact_lights)
         out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * (irradiance + indirect)
         return out
 

@@ -9,6 +9,10 @@ elsewhere (open flat surfaces, where it is smooth and the gather would only add 
   where it is gathered again: in a concave corner (a room's, where walls of one quad each meet) most rays land
   close by, and neither the elements around the corner nor the one under a close hit hold the light of that
   spot. The gather measured closer to Cycles there (docs/benchmarks.md, "Vertex colours").
+  Where a ray lands, each of the EXACT_LIGHTS_PER_HIT lamps brightest there gets a shadow ray (and one more goes
+  to one of the others, chosen by importance): with no texel denoiser after it, a corner would otherwise keep the
+  noise of choosing one lamp per hit, which sets a relit corner apart from a new bake's (about 1% with four
+  lamps; docs/benchmarks.md, "Update Light").
 - interpolation from the elements around the corner (core.solution.Solution.evaluate): fast and smooth.
 Corners that share a point, normals and material (the corners of one vertex on a flat or smooth-shaded surface)
 share their rays: each such point is evaluated once.
@@ -35,6 +39,7 @@ from .sampling import cosine_hemisphere, stratified_square
 NORMAL_STEPS = 1e4  # normals are matched to 1e-4 per component when corners share a point
 NEAR_ELEMENTS = 2.0  # a corner's gather rays that land within this many element sizes gather again there
 NEAR_SAMPLES_PER_EDGE = 4  # rays per edge of that second gather
+EXACT_LIGHTS_PER_HIT = 8  # the lamps brightest where a corner's gather ray lands that get a shadow ray each
 PROBE_SAMPLES_PER_EDGE = 4  # rays per edge that tell whether surfaces lie close to a corner (method "auto")
 GATHER_NEAR_SHARE = 0.3  # "auto" gathers where at least this share of the probe rays lands close by
 VERTEX_METHODS = ("auto", "gather", "interpolate")
@@ -72,7 +77,8 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
     indirect, _ = final_gather_parts(parts, solution.caster, point[here][:, None, :], shade[here],
                                      gather_samples_per_edge, solution.offset_m, seed, face_normals=face[here],
                                      near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE,
-                                     workers=steps_in_flight(solution.caster.threads))
+                                     workers=steps_in_flight(solution.caster.threads),
+                                     exact_lights=EXACT_LIGHTS_PER_HIT)
     for part, part_light, part_indirect in zip(parts, light, indirect):
         part_light[here] = part.output_light(part.direct_light(
             point[here], shade[here], triangle[here], moved[first][here], world=False) + part_indirect,

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from core.analytic_lights import area_light_area_m2, direct_irradiance, one_light_irradiance, spot_mask
+from core.analytic_lights import area_light_area_m2, direct_irradiance, sampled_irradiance, spot_mask
 from core.raycast import RayCaster
 from core.scene import AreaLight, Material, PointLight, Scene, SpotLight, SunLight, World
 from shapes import box_faces, quad
@@ -221,11 +221,14 @@ def test_a_smooth_low_poly_cylinder_lit_by_an_emissive_panel_gets_the_panel_s_cl
 
 
 
-def test_one_light_per_point_is_unbiased():
+@pytest.mark.parametrize("exact_lights", [0, 2])
+def test_sampled_lights_are_unbiased(exact_lights):
     """Four lights of different kinds, colours and strengths over a floor, a block casting their shadows: the
-    mean over 40,000 floor points of the one-light estimate (one shadow ray to a light chosen by importance,
-    divided by the chance of choosing it) equals the mean of every light's own shadow ray, within 2% per channel
-    (its sampling error there is under 0.5%). Without the division it would come out at about a quarter."""
+    mean over 40,000 floor points of the sampled estimate (a shadow ray to each of the ``exact_lights`` brightest
+    lights at a point, and one to one of the others chosen by importance, divided by the chance of choosing it)
+    equals the mean of every light's own shadow ray, within 2% per channel (its sampling error there is under
+    0.5%). Without the division it would come out at about a quarter. With every light tested (exact_lights 4)
+    no choice is left: each point's estimate is every light's own shadow ray."""
     floor = quad((-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0))
     block = np.concatenate(box_faces((-1, -1, 0), (1, 1, 2), inward=False))
     triangles = np.concatenate([floor, block])
@@ -240,9 +243,11 @@ def test_one_light_per_point_is_unbiased():
     points = np.column_stack([rng.uniform(-5, 5, 40_000), rng.uniform(-5, 5, 40_000), np.zeros(40_000)])
     points = points[np.abs(points[:, :2]).max(axis=1) > 1.0]  # not under the block
     normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
-    every = direct_irradiance(scene, caster, points, normals, 1e-4, 1, 5).mean(axis=0)
-    one = one_light_irradiance(scene, caster, points, normals, 1e-4, 5).mean(axis=0)
-    assert one == pytest.approx(every, rel=0.02)
+    every = direct_irradiance(scene, caster, points, normals, 1e-4, 1, 5)
+    sampled = sampled_irradiance(scene, caster, points, normals, 1e-4, 5, exact_lights=exact_lights)
+    assert sampled.mean(axis=0) == pytest.approx(every.mean(axis=0), rel=0.02)
+    every_tested = sampled_irradiance(scene, caster, points, normals, 1e-4, 5, exact_lights=len(lights))
+    assert np.abs(every_tested - every).max() < 1e-9 * every.max()
 
 
 def test_a_room_s_corners_get_the_lamp_s_light_where_they_are():
