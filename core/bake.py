@@ -236,7 +236,7 @@ def _relit(solution: Solution, scene: Scene, settings: BakeSettings, progress, c
     state = HierarchicalState(clusters, full.tree, receivers, full.links, full.exposed_m2, full.sending_m2,
                               full.reflectance, direct, direct.copy(), exposed_samples=full.exposed_samples)
     solve(state, settings.residual_threshold, settings.max_shots, lambda: caster.rays_cast, progress, cancelled,
-          full.sampled_scale)
+          full.sampled_scale, len(full.history))
     timer.lap("solve")
     elements = _solved_elements(state, solution.elements.node_element, settings.element_size_m)
     direct_lighting = DirectLighting(scene, caster, settings.patch_size_m, offset, settings.light_samples_per_edge,

@@ -211,9 +211,11 @@ def node_deviation(tree: ClusterTree, radiosity: np.ndarray, exposed_m2: np.ndar
 
 def solve(state: HierarchicalState, residual_threshold: float, max_iterations: int,
           rays=lambda: 0, progress: Progress = no_progress, cancelled=never_cancelled,
-          sampled_scale: np.ndarray | None = None) -> HierarchicalState:
+          sampled_scale: np.ndarray | None = None, min_iterations: int = 1) -> HierarchicalState:
     """Jacobi iterations, from the state's irradiance, until the change in radiated power is below
-    ``residual_threshold`` of the injected power (emission plus first reflection of direct light). Emitted and
+    ``residual_threshold`` of the injected power (emission plus first reflection of direct light), and at least
+    ``min_iterations`` of them (a light group's solve as many as the solve of the whole, so that the ambient
+    term, measured from the last two, is measured alike: ``HierarchicalState.ambient``). Emitted and
     reflected radiosity are gathered apart (_BalancedTransfer): the light straight from emissive surfaces once,
     the reflected light (``gathered``: the indirect light outputs interpolate) in every iteration. With
     ``sampled_scale`` (another solve's, on the same links) the balance keeps that scale: the transfer is then one
@@ -248,7 +250,7 @@ def solve(state: HierarchicalState, residual_threshold: float, max_iterations: i
         state.history.append(ConvergenceStep(iteration, residual, time.perf_counter() - started, rays()))
         progress(min(1.0, np.log(max(residual, 1e-12)) / np.log(max(residual_threshold, 1e-12))),
                  f"Solving: iteration {iteration}, residual {residual:.4f}")
-        if residual <= residual_threshold:
+        if residual <= residual_threshold and iteration - first + 1 >= min_iterations:
             break
     # The enclosure: the share of the power the receivers radiate that lands on the scene.
     power = (radiosity[receivers.element, receivers.side] * area).sum(axis=1)

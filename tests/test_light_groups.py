@@ -18,6 +18,7 @@ LAMPS = [PointLight("lamp", (0.5, 0.5, 2.0), 200.0, (1.0, 0.8, 0.6), light_group
 KEY = PointLight("key", (3.0, 0.5, 1.0), 150.0, (0.6, 0.7, 1.0))
 WALL = Material("wall", (0.7, 0.6, 0.5))
 GLOW = Material("glow", (0.8, 0.8, 0.8), (3.0, 3.0, 2.0), light_group="neon")
+GLOW_OFF = replace(GLOW, emitted_radiance=(0.0, 0.0, 0.0))
 
 
 def room_parts() -> list[np.ndarray]:
@@ -91,3 +92,16 @@ def test_a_group_holds_the_light_of_its_lamps_alone():
     assert np.abs(lamps - alone).sum() < 0.015 * alone.sum()
     sky = groups["sky"].element_light()
     assert sky.min() >= 0 and sky.sum() > 0
+
+
+def test_a_group_solves_as_long_as_the_whole():
+    """The room lit by its sky alone, solved to a loose 5% residual: its one group equals the whole bake within
+    0.1% on the mean over the elements. The group's solve had stopped an iteration before the whole's (a rough
+    solve, then refined links), and with it the ambient term (the unfinished iterations' light, measured from the
+    last two): 1.0% off here, 29% on the room sample, whose sky falls mostly outside it."""
+    scene = room([], GLOW_OFF, World((0.3, 0.4, 0.5), light_group="sky"))
+    settings = replace(SETTINGS, residual_threshold=0.05)
+    whole = bake(scene, settings)
+    (group,) = bake_light_groups(whole, settings).values()
+    assert len(group.state.history) >= len(whole.state.history)
+    assert np.abs(group.element_light() - whole.element_light()).sum() < 0.001 * whole.element_light().sum()
