@@ -3,10 +3,12 @@ so a bake split by light source (each lamp, each emissive material, the world) i
 other strengths and colours, grouped in any way, light the scene as a weighted sum of the basis: no ray is cast and
 nothing is solved again.
 
-A source's weight is, per RGB channel, its emission now over its emission when the basis was baked: a lamp's power
-(a sun's strength) x colour, a material's emitted radiance, the world's radiance. A channel baked dark holds no
-light to scale, so raising it is refused, naming the source; so is anything that changes where light goes
-(``TransportKey``): geometry, materials' reflectance, lamps' placement and shape, settings.
+A source's weight is, per RGB channel, its emission now over its emission in the basis: a lamp's power (a sun's
+strength) x colour, a material's emitted radiance, the world's radiance. The basis lights every channel of every
+lamp and of the world, those that are off included (``basis``), so a relight may turn any of them on. A lamp added
+since, or a material that did not emit when the basis was baked, holds no light to scale: it is refused, naming
+it; so is anything that changes where light goes (``TransportKey``): geometry, materials' reflectance, lamps'
+placement and shape, settings.
 """
 from __future__ import annotations
 
@@ -17,21 +19,55 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import SceneError
-from .scene import LAMP, MATERIAL, WORLD, Scene, Source, material_name, source_key
+from .scene import LAMP, MATERIAL, WORLD, Scene, Source, SunLight, material_name, source_key, sources
 
 # A lamp's fields that do not move its light (the rest, placement and shape, do).
 LAMP_EMISSION_FIELDS = ("name", "power_w", "strength_w_m2", "color", "light_group")
 
 
-def by_source(scene: Scene) -> Scene:
-    """The scene with each source in a light group of its own (``Source.key``): core.bake.bake_light_groups of
-    it bakes the basis."""
-    split = copy.copy(scene)
-    split.lights = [replace(light, light_group=source_key(LAMP, light.name)) for light in scene.lights]
-    split.materials = [replace(material, light_group=source_key(MATERIAL, material_name(scene, index)))
-                       for index, material in enumerate(scene.materials)]
-    split.world = replace(scene.world, light_group=source_key(WORLD, WORLD))
-    return split
+def basis(scene: Scene) -> tuple[Scene, list[Source]]:
+    """The scene a relighting basis is baked from (core.bake.bake_light_groups of it: one part per source, each
+    in a light group of its own, named by ``Source.key``), and the sources of the basis, with their emission
+    there and their light groups in ``scene``. Every lamp and the world light every channel in the basis, so that
+    a relight may turn on or tint any of them: a channel that is dark takes the source's brightest channel, and a
+    lamp that is off (its power or colour zero) emits as the brightest lamp of its kind that is on (its kind: suns
+    in W m^-2, the others in W), or at 1 when none is; a dark world emits radiance 1 (W m^-2 sr^-1). Emissive
+    materials keep what they emit, with their dark channels filled so."""
+    filled = copy.copy(scene)
+    filled.lights = [_lit(light, factor, scene) for light, factor in zip(scene.lights, scene.light_factor)]
+    filled.light_factor = np.ones(len(scene.lights))
+    filled.materials = [replace(material, emitted_radiance=_filled(material.emitted_radiance))
+                        if max(material.emitted_radiance) > 0 else material for material in scene.materials]
+    filled.world = replace(scene.world, radiance=_filled(scene.world.radiance) if max(scene.world.radiance) > 0
+                           else (1.0, 1.0, 1.0))
+    split = copy.copy(filled)
+    split.lights = [replace(light, light_group=source_key(LAMP, light.name)) for light in filled.lights]
+    split.materials = [replace(material, light_group=source_key(MATERIAL, material_name(filled, index)))
+                       for index, material in enumerate(filled.materials)]
+    split.world = replace(filled.world, light_group=source_key(WORLD, WORLD))
+    return split, sources(filled)
+
+
+def _power_field(light) -> str:
+    return "strength_w_m2" if isinstance(light, SunLight) else "power_w"
+
+
+def _lit(light, factor: float, scene: Scene):
+    """``light`` emitting in every channel: its power x ``factor`` (the scene's light factor), its colour's dark
+    channels filled, or, when it is off, as the brightest lamp of its kind in ``scene`` that is on (1 if none)."""
+    field = _power_field(light)
+    power = getattr(light, field) * factor
+    if power > 0 and max(light.color) > 0:
+        return replace(light, **{field: power, "color": _filled(light.color)})
+    powers = [getattr(other, field) * other_factor * max(other.color)
+              for other, other_factor in zip(scene.lights, scene.light_factor) if _power_field(other) == field]
+    return replace(light, **{field: max(powers + [0.0]) or 1.0, "color": (1.0, 1.0, 1.0)})
+
+
+def _filled(colour) -> tuple[float, float, float]:
+    """A colour with its zero channels set to its brightest channel."""
+    brightest = max(colour)
+    return tuple(float(c) if c > 0 else float(brightest) for c in colour)
 
 
 def weights(baked: list[Source], now: list[Source]) -> dict[str, np.ndarray]:
@@ -41,8 +77,8 @@ def weights(baked: list[Source], now: list[Source]) -> dict[str, np.ndarray]:
     current = {source.key: source for source in now}
     new = [source for key, source in current.items() if key not in {s.key for s in baked}]
     if new:
-        raise SceneError(f"The relighting cache has no light of {_named(new[0])}, which emits now and did not when "
-                         "it was baked (or was off): bake again.")
+        raise SceneError(f"The relighting cache has no light of {_named(new[0])}, which emits now and was not in "
+                         "the scene (a material: did not emit) when the cache was baked: bake again.")
     out = {}
     for source in baked:
         emission = np.asarray(current[source.key].emission if source.key in current else (0.0,) * 3)

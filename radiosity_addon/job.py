@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core import BakeSettings, SceneError, bake
 from ..core.bake import bake_light_groups
-from ..core.relight import by_source, mix, weights
+from ..core.relight import basis, mix, weights
 from ..core.scene import sources
 from ..core.atlas import AtlasSize, uv_area
 from ..core.geometry import triangle_areas
@@ -116,7 +116,7 @@ def _fit_to_memory(job: Job, limit_gb: float) -> None:
     groups, or sources for a relighting cache) holds every part's texels and pages."""
     scene, plan = job.export.scene, job.lightmap_plan
     covered, image = 0, 0
-    parts = len(sources(scene)) if job.user.relight_cache else max(1, len(job.light_groups))
+    parts = len(basis(scene)[1]) if job.user.relight_cache else max(1, len(job.light_groups))
     if plan is not None:
         width, height = plan.layout.width, plan.layout.height
         covered = parts * max((int(uv_area(corner_uv) * width * height) for _, corner_uv in plan.page_triangles),
@@ -150,19 +150,21 @@ def solve(job: Job, progress, cancelled) -> None:
 
 def _solve(job: Job, progress, cancelled) -> None:
     scene = job.export.scene
-    job.solution = solution = bake(scene, job.settings, progress, cancelled)
+    # With a relighting cache, a part per source of light (core.relight.basis), every lamp on: the links are
+    # refined for each source's light, the lamps that are off now included.
+    split, job.sources = basis(scene) if job.user.relight_cache else (None, [])
+    job.solution = solution = bake(split or scene, job.settings, progress, cancelled)
     job.stats = {"timings": solution.seconds, "elements": solution.element_count, "solve": solution.counts,
                  "residual": solution.residual, "rays": solution.rays_cast, "warnings": list(solution.warnings)}
-    if job.user.relight_cache:  # a part per source of light: the relighting basis (core.relight)
-        job.sources = sources(scene)
-        job.basis = bake_light_groups(solution, job.settings, progress, cancelled, by_source(scene))
+    if split is not None:
+        job.basis = bake_light_groups(solution, job.settings, progress, cancelled, split)
+        job.weights = weights(job.sources, sources(scene))
         job.members = {group: list(dict.fromkeys(s.key for s in job.sources if s.light_group == group))
                        for group in job.light_groups}
     elif job.light_groups:
         job.basis = bake_light_groups(solution, job.settings, progress, cancelled)
-        job.members = {group: [group] for group in job.light_groups}
-    if job.basis:
         job.weights = {key: np.ones(3) for key in job.basis}
+        job.members = {group: [group] for group in job.light_groups}
     plan = job.lightmap_plan
     if plan is not None:
         job.lightmaps = [bake_lightmap(solution, scene_triangle, corner_uv, plan.layout.width, plan.layout.height,
@@ -200,7 +202,7 @@ def apply(job: Job, staged: StagedFiles) -> dict:
         warnings += more
     objects = _merge(objects, entries)
     if job.user.create_radiosity_mesh and job.solution is not None:
-        obj = write_radiosity_mesh(job.solution, job.user.attribute_name)
+        obj = write_radiosity_mesh(_radiosity_mesh(job), job.user.attribute_name)
         objects.append({"name": obj.name, "color_attribute": job.user.attribute_name, "uv_map": None, "image": None,
                         "resolution": None})
     report = {
@@ -240,6 +242,15 @@ def _mixed(job: Job, page, group: str | None = None) -> np.ndarray:
     if not page.groups:
         return page.light
     return mix(page.groups, job.weights, list(job.weights) if group is None else job.members[group])
+
+
+def _radiosity_mesh(job: Job) -> tuple:
+    """The solve's mesh with its light; a bake with a relighting cache solved every source on at the basis's
+    emission, so its light is mixed from the basis."""
+    vertices, triangles, light = job.solution.radiosity_mesh()
+    if job.user.relight_cache:
+        light = mix({key: part.radiosity_mesh()[2] for key, part in job.basis.items()}, job.weights, list(job.weights))
+    return vertices, triangles, light
 
 
 def _corner_light(job: Job, item, obj) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -308,8 +319,8 @@ def relight_job(context, user: UserSettings, lightmap_folder: str, path: str):
                          "since it was baked. Bake again.")
     job = Job(export, cache["settings"], user, lightmap_folder, cache["lightmap_settings"])
     now = sources(export.scene)
-    # The groups of the bake too: a group whose lamps are all off now is written dark, not left as it was.
-    groups = sorted(set(export.scene.light_groups) | {source.light_group for source in cache["sources"]})
+    # The groups the bake wrote too: a group whose lamps are all off now is written dark, not left as it was.
+    groups = sorted(set(export.scene.light_groups) | set(cache["light_groups"]))
     job.light_groups = tuple(groups) if user.light_groups and any(groups) else ()
     job.weights = weights(cache["sources"], now)
     group_of = {source.key: source.light_group for source in cache["sources"]} | {s.key: s.light_group for s in now}

@@ -20,7 +20,7 @@ from ..core.staged_files import StagedFiles
 from .settings import UserSettings
 
 FORMAT = "radiosity-relight"
-VERSION = 1
+VERSION = 2
 # The settings a bake's light depends on, besides what presets.bake_settings makes of them; output names,
 # folders, formats and light groups are free to change.
 TRANSPORT_SETTINGS = ("quality", "element_size", "patch_size", "adaptive_passes", "residual", "light_samples",
@@ -60,7 +60,8 @@ def stage_cache(job, staged: StagedFiles) -> str:
     # a relight gives it the settings of its own time.
     plan = None if job.lightmap_plan is None else replace(job.lightmap_plan, user=None)
     cache = {"format": FORMAT, "version": VERSION, "key": transport_key(job.export.scene, job.user),
-             "sources": job.sources, "settings": job.settings, "lightmap_settings": job.lightmap_settings,
+             "sources": job.sources, "light_groups": job.light_groups, "settings": job.settings,
+             "lightmap_settings": job.lightmap_settings,
              "lightmap_plan": plan, "pages": pages, "corner_basis": job.corner_basis,
              "stats": job.stats, "memory": job.memory}
 

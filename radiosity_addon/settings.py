@@ -90,8 +90,8 @@ SETTINGS = (
             "after the group ('ungrouped' for the rest); the main result is their sum", flag="--light-groups"),
     Setting("relight_cache", "Relighting Cache", "", "Also write the bake split by light source into this file "
             "(// is the .blend's folder), so that Update Light (--relight) applies later changes of lamps' "
-            "strength and colour, emission strengths, the world's strength and light groups without baking "
-            "again; empty writes none", flag="--cache", subtype="FILE_PATH"),
+            "strength and colour (lamps that are off included), emission strengths, the world's strength and "
+            "light groups without baking again; empty writes none", flag="--cache", subtype="FILE_PATH"),
     Setting("attribute_name", "Attribute", "Radiosity", "Name of the colour attribute the bake writes (replaced "
             "on rebake)", flag="--attribute", section="vertex_colors"),
     Setting("vertex_domain", "Domain", "CORNER", "What the colour attribute holds a colour for",

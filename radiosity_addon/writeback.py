@@ -133,15 +133,16 @@ def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER",
         mesh[OWNED_ATTRIBUTE] = name
 
 
-def write_radiosity_mesh(solution, attribute: str, name: str = "Radiosity Mesh"):
-    """A new object holding the adaptive element mesh with its light as a corner colour attribute; replaces the
-    one a previous bake made."""
+def write_radiosity_mesh(radiosity_mesh: tuple, attribute: str, name: str = "Radiosity Mesh"):
+    """A new object holding the adaptive element mesh with its light as a corner colour attribute (``radiosity_mesh``:
+    core.solution.Solution.radiosity_mesh's vertices, triangles and corner light); replaces the one a previous bake
+    made."""
     for obj in [o for o in bpy.data.objects if o.get(RADIOSITY_MESH_TAG)]:
         mesh = obj.data
         bpy.data.objects.remove(obj)
         if mesh.users == 0:
             bpy.data.meshes.remove(mesh)
-    vertices, triangles, corner_light = solution.radiosity_mesh()
+    vertices, triangles, corner_light = radiosity_mesh
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata(vertices.tolist(), [], triangles.tolist())
     _write_attribute(mesh, attribute, corner_light.reshape(-1, 3))

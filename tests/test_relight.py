@@ -7,30 +7,49 @@ import pytest
 
 from core import SceneError, World, bake
 from core.bake import bake_light_groups
-from core.relight import TransportKey, by_source, mix, weights
+from core.relight import TransportKey, basis, mix, weights
 from core.scene import sources
 from test_light_groups import GLOW, KEY, LAMPS, SETTINGS, room
 
 
-def test_a_basis_by_source_relights_to_a_bake_of_the_relit_scene():
-    """The room's basis (two lamps, the key lamp, the glowing panel, the sky) mixed at weight 1 gives back the
-    whole bake within 0.2% on the mean over the elements (the solves' 0.1% residual). Mixed for the key lamp off,
-    one lamp orange and the sky halved, it equals a bake of that scene within 1.5% (that bake refines its links and
-    balances its energy for its own light, as the lamps-alone test of test_light_groups measures; on the outputs,
-    where direct light is traced per texel and corner, the add-on's test holds them to 0.1%)."""
-    scene = room(LAMPS + [KEY])
+def test_a_basis_relights_to_a_bake_of_the_relit_scene():
+    """The room's basis (two lamps, the key lamp, off when baked, the glowing panel, the sky) mixed at the scene's
+    own weights gives back the whole bake within 0.2% on the mean over the elements (the solves' 0.1% residual).
+    Mixed for the key lamp on, one lamp orange and the sky halved, it equals a bake of that scene within 1.5% (that
+    bake refines its links and balances its energy for its own light, as the lamps-alone test of test_light_groups
+    measures; on the outputs, where direct light is traced per texel and corner, the add-on's test holds them to
+    0.1%)."""
+    scene = room(LAMPS + [replace(KEY, power_w=0.0)])
     whole = bake(scene, SETTINGS)
-    basis = {key: part.element_light() for key, part in
-             bake_light_groups(whole, SETTINGS, grouped=by_source(scene)).items()}
-    baked = sources(scene)
-    assert sorted(basis) == sorted(source.key for source in baked)
-    ones = weights(baked, baked)
-    assert np.abs(mix(basis, ones, list(basis)) - whole.element_light()).sum() < 0.002 * whole.element_light().sum()
-    edited = room([LAMPS[0], replace(LAMPS[1], color=(1.0, 0.5, 0.2)), replace(KEY, power_w=0.0)],
+    split, baked = basis(scene)
+    parts = {key: part.element_light() for key, part in bake_light_groups(whole, SETTINGS, grouped=split).items()}
+    assert sorted(parts) == sorted(source.key for source in baked)
+    mixed = mix(parts, weights(baked, sources(scene)), list(parts))
+    assert np.abs(mixed - whole.element_light()).sum() < 0.002 * whole.element_light().sum()
+    edited = room([LAMPS[0], replace(LAMPS[1], color=(1.0, 0.5, 0.2)), KEY],
                   world=World((0.15, 0.2, 0.25), light_group="sky"))
-    relit = mix(basis, weights(baked, sources(edited)), list(basis))
+    relit = mix(parts, weights(baked, sources(edited)), list(parts))
     again = bake(edited, SETTINGS).element_light()
     assert np.abs(relit - again).sum() < 0.015 * again.sum()
+
+
+def test_the_basis_lights_every_channel_of_every_lamp_and_the_world():
+    """A red lamp is baked white at its power, a lamp that is off as the brightest lamp that is on (200 W x its
+    brightest channel 1.0), a dark world at radiance 1, the panel's emission as it is: the scene's own weights are
+    then its red channel alone, 0 for the lamp that is off and the world. Lamps keep their light groups."""
+    scene = room([replace(LAMPS[0], color=(1.0, 0.0, 0.0)), LAMPS[1], replace(KEY, power_w=0.0)], world=World())
+    split, baked = basis(scene)
+    emission = {source.key: source.emission for source in baked}
+    assert emission["lamp:lamp"] == pytest.approx((200.0,) * 3)
+    assert emission["lamp:key"] == pytest.approx((200.0,) * 3)
+    assert emission["world:world"] == pytest.approx((1.0,) * 3)
+    assert emission["material:glow [neon]"] == pytest.approx(GLOW.emitted_radiance)
+    assert {source.key: source.light_group for source in baked}["lamp:lamp"] == "lamps"
+    assert sorted(split.light_groups) == sorted(emission)
+    weight = weights(baked, sources(scene))
+    assert weight["lamp:lamp"] == pytest.approx([1.0, 0.0, 0.0])
+    assert weight["lamp:key"] == pytest.approx([0.0] * 3)
+    assert weight["world:world"] == pytest.approx([0.0] * 3)
 
 
 def test_weights_are_emission_ratios_and_refuse_what_the_basis_cannot_hold():
