@@ -237,14 +237,18 @@ class Solution:
         node, _ = self.mesh.locate(mesh_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved])
         return solved, node
 
-    def radiosity_mesh(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def radiosity_mesh(self, lightings: list | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The pieces of the solve's mesh with their light: (V, 3) vertices, (p, 3) triangles, (p, 3, 3) light
-        at each piece's corners (interpolated, as ``evaluate`` without direct light per point)."""
+        at each piece's corners (interpolated, as ``evaluate`` without direct light per point); with
+        ``lightings`` (G solutions of the same surfaces lit by parts of the light), (G, p, 3, 3) the light of
+        each."""
         leaves = self.mesh.leaves
         vertices, corner_vertex = weld_vertices(self.mesh, leaves, self.offset_m / 10)
         scene_triangle = np.repeat(self.mesh.triangle_scene[self.mesh.node_triangle[leaves]], 3)
-        corner_light = self.evaluate(scene_triangle, self.mesh.node_bary[leaves].reshape(-1, 3))
-        return vertices, corner_vertex, corner_light.reshape(-1, 3, 3)
+        barycentric = self.mesh.node_bary[leaves].reshape(-1, 3)
+        light = np.stack([part.evaluate(scene_triangle, barycentric).reshape(-1, 3, 3)
+                          for part in (lightings or [self])])
+        return vertices, corner_vertex, light if lightings is not None else light[0]
 
     def _interpolate(self, values: np.ndarray, points, normals, scene_triangle, barycentric) -> np.ndarray:
         """(m, 3) per-side values (n, 2, 3) interpolated at surface points (NaN where not solved)."""

@@ -247,10 +247,10 @@ def _mixed(job: Job, page, group: str | None = None) -> np.ndarray:
 def _radiosity_mesh(job: Job) -> tuple:
     """The solve's mesh with its light; a bake with a relighting cache solved every source on at the basis's
     emission, so its light is mixed from the basis."""
-    vertices, triangles, light = job.solution.radiosity_mesh()
-    if job.user.relight_cache:
-        light = mix({key: part.radiosity_mesh()[2] for key, part in job.basis.items()}, job.weights, list(job.weights))
-    return vertices, triangles, light
+    if not job.user.relight_cache:
+        return job.solution.radiosity_mesh()
+    vertices, triangles, light = job.solution.radiosity_mesh(list(job.basis.values()))
+    return vertices, triangles, mix(dict(zip(job.basis, light)), job.weights, list(job.weights))
 
 
 def _corner_light(job: Job, item, obj) -> tuple[np.ndarray, dict[str, np.ndarray]]:
