@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import SceneError
-from .scene import LAMP, MATERIAL, WORLD, Scene, Source, SunLight, material_name, source_key, sources
+from .scene import LAMP, MATERIAL, WORLD, Scene, Source, material_name, power_field, source_key, sources
 
 # A lamp's fields that do not move its light (the rest, placement and shape, do).
 LAMP_EMISSION_FIELDS = ("name", "power_w", "strength_w_m2", "color", "light_group")
@@ -48,19 +48,15 @@ def basis(scene: Scene) -> tuple[Scene, list[Source]]:
     return split, sources(filled)
 
 
-def _power_field(light) -> str:
-    return "strength_w_m2" if isinstance(light, SunLight) else "power_w"
-
-
 def _lit(light, factor: float, scene: Scene):
     """``light`` emitting in every channel: its power x ``factor`` (the scene's light factor), its colour's dark
     channels filled, or, when it is off, as the brightest lamp of its kind in ``scene`` that is on (1 if none)."""
-    field = _power_field(light)
+    field = power_field(light)
     power = getattr(light, field) * factor
     if power > 0 and max(light.color) > 0:
         return replace(light, **{field: power, "color": _filled(light.color)})
     powers = [getattr(other, field) * other_factor * max(other.color)
-              for other, other_factor in zip(scene.lights, scene.light_factor) if _power_field(other) == field]
+              for other, other_factor in zip(scene.lights, scene.light_factor) if power_field(other) == field]
     return replace(light, **{field: max(powers + [0.0]) or 1.0, "color": (1.0, 1.0, 1.0)})
 
 

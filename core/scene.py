@@ -290,8 +290,7 @@ def sources(scene: Scene) -> list[Source]:
     """The scene's sources of light: lamps that are on, emissive materials in use, the world if it is bright."""
     found = []
     for light, factor in zip(scene.lights, scene.light_factor):
-        power = light.strength_w_m2 if isinstance(light, SunLight) else light.power_w
-        emission = tuple(float(power * factor * c) for c in light.color)
+        emission = tuple(float(getattr(light, power_field(light)) * factor * c) for c in light.color)
         if max(emission) > 0:
             found.append(Source(LAMP, light.name, emission, light.light_group))
     for index in np.unique(scene.material_index):
@@ -407,14 +406,19 @@ def _check_material(material: Material) -> None:
     _check_rgb(material.emitted_radiance, f"Material '{material.name}'", "emitted radiance", upper=MAX_EMISSION)
 
 
+def power_field(light) -> str:
+    """The field that holds a lamp's strength: a sun's irradiance (W m^-2), the others' power (W)."""
+    return "strength_w_m2" if isinstance(light, SunLight) else "power_w"
+
+
 def _light_power(light) -> float:
-    return (light.strength_w_m2 if isinstance(light, SunLight) else light.power_w) * max(light.color)
+    return getattr(light, power_field(light)) * max(light.color)
 
 
 def _check_light(light) -> None:
     owner = f"Light '{light.name}'"
     _check_rgb(light.color, owner, "colour", upper=None)
-    power = light.strength_w_m2 if isinstance(light, SunLight) else light.power_w
+    power = getattr(light, power_field(light))
     if not (np.isfinite(power) and 0 <= power * max(light.color) <= MAX_EMISSION):
         raise SceneError(f"{owner}: power / strength x colour must be a finite number from 0 to {MAX_EMISSION:g}, "
                          f"got {float(power):g}.")
