@@ -28,7 +28,8 @@ class ExportedObject:
 
     first_triangle / triangle_count: its range in the scene's input triangles; corner_loops / corner_vertices:
     (t, 3) loop and vertex of each triangle corner in the evaluated mesh; writable: a real (not instanced) mesh
-    object that is baked; same_topology: its evaluated mesh has the original mesh's loops, so values map loop to loop.
+    object that is baked; same_topology: its evaluated mesh has the original mesh's loops, so values map loop to loop;
+    loop_count: the original mesh's loops.
     """
 
     name: str
@@ -39,6 +40,7 @@ class ExportedObject:
     corner_vertices: np.ndarray
     writable: bool
     same_topology: bool
+    loop_count: int
 
 
 @dataclass
@@ -99,7 +101,8 @@ def export_scene(context) -> Export:
         objects.append(ExportedObject(
             name=original.name, mesh_name=original.data.name if original.type == "MESH" else "",
             first_triangle=sum(len(t) for t in columns["triangles"]), triangle_count=count, corner_loops=loops,
-            corner_vertices=vertices, writable=writable, same_topology=_same_topology(evaluated, original)))
+            corner_vertices=vertices, writable=writable, same_topology=_same_topology(evaluated, original),
+            loop_count=len(original.data.loops) if original.type == "MESH" else 0))
         names.append(name)
         part.update(casts_only=np.full(count, mode == "SHADOW_ONLY"), object_index=np.full(count, len(names) - 1),
                     terminator_offset=np.full(count, _terminator_offset(original)))

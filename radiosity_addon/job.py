@@ -25,10 +25,11 @@ from ..core.raycast import backend_name
 from ..core.staged_files import StagedFiles
 from .export import Export, export_scene, make_linked_local
 from .lightmaps import LightmapPlan, checked, plan_lightmap, write_lightmap
-from .presets import bake_settings, lightmap_settings
+from .presets import bake_settings, corner_gather_samples, lightmap_settings
 from .relighting import check_cache_path, load_cache, stage_cache, transport_key
 from .settings import UNGROUPED, UserSettings, light_group_output
-from .writeback import check_attribute_name_free, loop_light, write_radiosity_mesh, write_vertex_colors
+from .writeback import (check_attribute_name_free, loop_light, objects_loop_light, write_radiosity_mesh,
+                        write_vertex_colors)
 
 @dataclass
 class Job:
@@ -38,7 +39,7 @@ class Job:
     The outputs are mixed from a basis: ``basis`` the solutions of the light's parts (each light group's, or each
     source's for a relighting cache, core.relight; none for a plain bake, whose one part is ""), ``weights`` (3,)
     per part, and ``members``, the parts of each light group written apart. ``stats``: the solve's numbers the
-    report gives; ``corner_basis``: per object, each part's light per mesh loop (made while writing, or read from
+    report gives; ``corner_basis``: per object, each part's light per mesh loop (traced in the solve, or read from
     a relighting cache)."""
 
     export: Export
@@ -170,6 +171,20 @@ def _solve(job: Job, progress, cancelled) -> None:
         job.lightmaps = [bake_lightmap(solution, scene_triangle, corner_uv, plan.layout.width, plan.layout.height,
                                        job.lightmap_settings, progress, cancelled, job.basis or None)
                          for scene_triangle, corner_uv in plan.page_triangles]
+    if job.user.vertex_colors:
+        _keep_corner_light(job, objects_loop_light(
+            [item for item in job.export.objects if item.writable], solution, job.export.scene_index_of_input(),
+            job.user.vertex_indirect, corner_gather_samples(job.user), _lightings(job), progress, cancelled))
+
+
+def _lightings(job: Job) -> list:
+    """The solutions the outputs are mixed from: the basis's parts, or the one solution."""
+    return list(job.basis.values()) or [job.solution]
+
+
+def _keep_corner_light(job: Job, light: dict[str, np.ndarray]) -> None:
+    """Keep each object's (G, loops, 3) light per loop in ``job.corner_basis``, by part of the basis."""
+    job.corner_basis.update({name: dict(zip(job.basis or [""], parts)) for name, parts in light.items()})
 
 
 def write_outputs(job: Job) -> dict:
@@ -255,13 +270,12 @@ def _radiosity_mesh(job: Job) -> tuple:
 
 def _corner_light(job: Job, item, obj) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """An object's light per mesh loop, whole and per light group written apart, mixed from the basis (each
-    part's light traced now, or read from a relighting cache)."""
+    part's light traced in the solve, now for a mesh whose modifiers changed its loops, or read from a relighting
+    cache)."""
     if item.name not in job.corner_basis:
-        kept, user = job.export.scene_index_of_input(), job.user
-        lightings = list(job.basis.values()) or [job.solution]
-        light = loop_light(item, job.solution, kept, obj, user.vertex_indirect, user.vertex_gather_samples,
-                           lightings)
-        job.corner_basis[item.name] = dict(zip(job.basis or [""], light))
+        _keep_corner_light(job, {item.name: loop_light(item, job.solution, job.export.scene_index_of_input(), obj,
+                                                       job.user.vertex_indirect, corner_gather_samples(job.user),
+                                                       _lightings(job))})
     basis = job.corner_basis[item.name]
     return mix(basis, job.weights, list(job.weights)), {group: mix(basis, job.weights, job.members[group])
                                                          for group in job.light_groups}

@@ -20,7 +20,8 @@ class Preset:
     """elements_across / patches_across: element and patch edges per scene diagonal; adaptive_passes;
     residual: the solve stops at this unshot share of the injected power; light_samples: s, so s^2 shadow rays
     per element and soft light; lightmap_texels_across: lightmap texels per scene diagonal; gather_samples: s,
-    so s^2 final-gather rays per texel where the automatic indirect method gathers."""
+    so s^2 final-gather rays per texel where the automatic indirect method gathers; corner_gather_samples: s, so
+    s^2 final-gather rays per vertex-colour corner (no denoiser follows them, so more than per texel)."""
 
     elements_across: int
     patches_across: int
@@ -29,6 +30,7 @@ class Preset:
     light_samples: int
     lightmap_texels_across: int
     gather_samples: int
+    corner_gather_samples: int
 
     def summary(self) -> str:
         passes = f"{self.adaptive_passes} adaptive pass" if self.adaptive_passes else "no adaptive pass"
@@ -37,9 +39,9 @@ class Preset:
 
 
 PRESETS = {
-    "DRAFT": Preset(16, 6, 0, 0.02, 2, 128, 6),
-    "MEDIUM": Preset(32, 8, 1, 0.001, 7, 256, 8),
-    "HIGH": Preset(48, 8, 1, 0.0005, 10, 512, 8),
+    "DRAFT": Preset(16, 6, 0, 0.02, 2, 128, 6, 8),
+    "MEDIUM": Preset(32, 8, 1, 0.001, 7, 256, 8, 24),
+    "HIGH": Preset(48, 8, 1, 0.0005, 10, 512, 8, 32),
 }
 
 
@@ -70,3 +72,9 @@ def lightmap_settings(user, scene_size_m: float) -> tuple[LightmapSettings, Atla
     return LightmapSettings(indirect=user.lightmap_indirect if custom else "auto",
                             gather_samples_per_edge=user.gather_samples if custom else preset.gather_samples,
                             dilation_texels=user.lightmap_padding, seed=user.seed), size
+
+
+def corner_gather_samples(user) -> int:
+    """s, so s^2 final-gather rays per vertex-colour corner: the preset's, or Custom's Corner Gather Samples."""
+    preset = PRESETS.get(user.quality)
+    return preset.corner_gather_samples if preset is not None else user.vertex_gather_samples

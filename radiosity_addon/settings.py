@@ -108,9 +108,9 @@ SETTINGS = (
                 ("interpolate", "Interpolate", "From the radiosity elements around the corner: fast, smooth; too "
                                                "bright in concave corners"))),
     Setting("vertex_gather_samples", "Corner Gather Samples", 16, "Final-gather rays per corner: this number "
-            "squared (corners of one vertex with one normal share them)", flag="--vertex-gather-samples", low=1,
-            high=64, soft_high=32, section="vertex_colors",
-            enabled_when=lambda settings: settings.vertex_indirect != "interpolate"),
+            "squared (Custom quality; corners of one vertex with one normal share them)",
+            flag="--vertex-gather-samples", low=1, high=64, soft_high=32, section="vertex_colors",
+            enabled_when=lambda settings: _custom(settings) and settings.vertex_indirect != "interpolate"),
     Setting("own_mesh_copies", "Copies Get Own Mesh", True, "Give each baked object that shares its mesh with "
             "another (linked duplicates) its own copy of the mesh, as Make Single User > Object Data does, so that "
             "each holds its own light (Undo reverses it); off, they share the first one's colours",

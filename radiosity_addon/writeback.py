@@ -11,7 +11,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ..core import SceneError
+from ..core import BakeCancelled, SceneError
 from ..core.vertex_light import corner_light, projected_light
 from .export import RADIOSITY_MESH_TAG, Export, ExportedObject, world_corner_normals, world_positions
 from .settings import UserSettings, light_group_output
@@ -19,6 +19,7 @@ from .settings import UserSettings, light_group_output
 OWNED_ATTRIBUTE = "radiosity_attribute"
 OWNED_GROUP_ATTRIBUTES = "radiosity_group_attributes"
 PROJECTION_REACH = 0.05  # of the scene's size: how far a corner of a modified mesh looks for its baked surface
+CORNERS_PER_BATCH = 1 << 14  # mesh corners lit per call when many objects are baked to colour attributes
 
 
 def check_attribute_name_free(export: Export, name: str) -> None:
@@ -79,16 +80,46 @@ def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj, method: st
     """(G, loops, 3) light per loop of the original mesh for each of the G ``lightings`` (``solution`` or parts of
     its light, core.vertex_light.corner_light: direct light traced at each corner, indirect light by ``method``,
     the gather's rays shared)."""
-    triangles = kept[item.first_triangle + np.arange(item.triangle_count)]
     if item.same_topology:
-        valid = triangles >= 0
-        corner_bary = np.tile(np.eye(3), (int(valid.sum()), 1))
-        values = corner_light(solution, np.repeat(triangles[valid], 3), corner_bary, method, gather_samples_per_edge,
-                              lightings=lightings)
-        light = np.zeros((len(lightings), len(obj.data.loops), 3))
-        light[:, item.corner_loops[valid].ravel()] = values
-        return np.nan_to_num(light)
+        return _objects_light([item], solution, kept, method, gather_samples_per_edge, lightings)[item.name]
+    triangles = kept[item.first_triangle + np.arange(item.triangle_count)]
     return _projected_light(item, solution, triangles, obj, method, gather_samples_per_edge, lightings)
+
+
+def objects_loop_light(items: list[ExportedObject], solution, kept: np.ndarray, method: str,
+                       gather_samples_per_edge: int, lightings: list, progress, cancelled) -> dict[str, np.ndarray]:
+    """``loop_light`` of each of ``items`` whose modifiers kept the mesh's loops (no bpy: runs in the bake's
+    worker thread), by name, traced for many objects at once: at least CORNERS_PER_BATCH corners per call of
+    core.vertex_light.corner_light, so that a level's many small props do not each pay a call's fixed work.
+    Reports progress and raises BakeCancelled between calls."""
+    items = [item for item in items if item.same_topology]
+    light, batch, corners = {}, [], 0
+    for number, item in enumerate(items, 1):
+        batch.append(item)
+        corners += 3 * item.triangle_count
+        if corners >= CORNERS_PER_BATCH or number == len(items):
+            if cancelled():
+                raise BakeCancelled("Bake cancelled while lighting the colour attributes' corners.")
+            light.update(_objects_light(batch, solution, kept, method, gather_samples_per_edge, lightings))
+            progress(number / len(items), f"Vertex colours: {number} of {len(items)} objects lit")
+            batch, corners = [], 0
+    return light
+
+
+def _objects_light(items, solution, kept, method, gather_samples_per_edge, lightings) -> dict[str, np.ndarray]:
+    """(G, loops, 3) light per loop of each same-topology object in ``items``, from one corner_light call."""
+    triangles = [kept[item.first_triangle + np.arange(item.triangle_count)] for item in items]
+    valid = [scene_triangle >= 0 for scene_triangle in triangles]
+    corners = np.concatenate([scene_triangle[kept_ones] for scene_triangle, kept_ones in zip(triangles, valid)])
+    values = corner_light(solution, np.repeat(corners, 3), np.tile(np.eye(3), (len(corners), 1)), method,
+                          gather_samples_per_edge, lightings=lightings)
+    light, start = {}, 0
+    for item, kept_ones in zip(items, valid):
+        count = 3 * int(kept_ones.sum())
+        loops = np.zeros((len(lightings), item.loop_count, 3))
+        loops[:, item.corner_loops[kept_ones].ravel()] = values[:, start:start + count]
+        light[item.name], start = np.nan_to_num(loops), start + count
+    return light
 
 
 def _projected_light(item, solution, triangles, obj, method: str, gather_samples_per_edge: int,

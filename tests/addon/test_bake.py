@@ -27,6 +27,24 @@ def test_cancelled_bake_changes_nothing(empty_scene, extension):
     assert scene_state() == before
 
 
+def test_cancelled_while_lighting_corners_changes_nothing(empty_scene, extension, monkeypatch):
+    """Esc between two objects' corners (the colour attributes are lit in the solve, batches of objects at a
+    time; one object per batch here): the bake stops there and the meshes are as they were."""
+    tiles = [grid_plane(name, 1.0, 2, location=(x, 0.0, 0.0)) for name, x in (("Left", -1.0), ("Right", 1.0))]
+    tiles[0].data.color_attributes.new("Paint", "BYTE_COLOR", "CORNER")
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    before = scene_state()
+    monkeypatch.setattr(extension.radiosity_addon.writeback, "CORNERS_PER_BATCH", 1)
+    job_module = extension.radiosity_addon.job
+    from radiosity_baker.core import BakeCancelled
+    job = job_module.prepare(bpy.context, bpy.context.scene.radiosity.user_settings(), "")
+    messages = []
+    with pytest.raises(BakeCancelled, match="colour attributes"):
+        job_module.solve(job, lambda fraction, message: messages.append(message),
+                         lambda: any(message.startswith("Vertex colours") for message in messages))
+    assert messages[-1] == "Vertex colours: 1 of 2 objects lit" and scene_state() == before
+
+
 def test_rebake_replaces_only_our_attribute(empty_scene):
     floor = grid_plane("Floor", 2.0, 4)
     floor.data.color_attributes.new("Paint", "BYTE_COLOR", "CORNER")
