@@ -85,12 +85,14 @@ def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.nd
 def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
                        samples_per_edge: int, offset_m: float, seed: int, face_normals: np.ndarray | None = None,
                        near_m: float = 0.0, near_samples_per_edge: int = 0, workers: int = 1,
-                       exact_lights: int = 0) -> tuple[np.ndarray, np.ndarray]:
+                       exact_lights: int = 0, min_chunks: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """``final_gather`` of several solutions of the same surfaces, lit by parts of the light (light groups,
     core.bake.bake_light_groups), along the same rays: (G, m, 3) each one's light, and the (m, 3) variance of the
-    mean of their sum (the rays' sample variance of the summed light over their count)."""
+    mean of their sum (the rays' sample variance of the summed light over their count). The points are split into
+    at least ``min_chunks`` chunks where there are that many, so that one call's chunks can fill ``workers``
+    (a fixed number, not ``workers``: the chunks seed the rays, and the result must not depend on the machine)."""
     rays = samples_per_edge ** 2
-    step = max(1, RAYS_PER_CHUNK // rays)
+    step = max(1, min(RAYS_PER_CHUNK // rays, -(-len(points) // min_chunks)))
     faces = normals if face_normals is None else face_normals
     chunks = [slice(start, min(start + step, len(points))) for start in range(0, len(points), step)]
     gathered = lambda chunk: _gather_chunk(solutions, caster, points[chunk], normals[chunk], faces[chunk],

@@ -32,7 +32,7 @@ import numpy as np
 from .errors import SettingsError
 from .gather import final_gather_parts
 from .geometry import lengths, tangent_frames, triangle_unit_normals
-from .parallel import steps_in_flight
+from .parallel import MAX_STEPS_IN_FLIGHT, steps_in_flight
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
@@ -78,7 +78,7 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
                                      gather_samples_per_edge, solution.offset_m, seed, face_normals=face[here],
                                      near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE,
                                      workers=steps_in_flight(solution.caster.threads),
-                                     exact_lights=EXACT_LIGHTS_PER_HIT)
+                                     exact_lights=EXACT_LIGHTS_PER_HIT, min_chunks=MAX_STEPS_IN_FLIGHT)
     for part, part_light, part_indirect in zip(parts, light, indirect):
         part_light[here] = part.output_light(part.direct_light(
             point[here], shade[here], triangle[here], moved[first][here], world=False) + part_indirect,
