@@ -18,7 +18,7 @@ Corners that share a point, normals and material (the corners of one vertex on a
 share their rays: each such point is evaluated once.
 
 A mesh whose modifiers changed its topology keeps its original corners, which lie on or near the rendered surface
-but on none of its triangles: ``projected_light`` casts two rays along each corner's normal line, one from
+but on none of its triangles: ``projected_points`` casts two rays along each corner's normal line, one from
 ``reach_m`` in front of it looking back and one from ``reach_m`` behind it looking forward, and takes the light at
 the hit nearer to the corner on the object's solved triangles. So a surface up to ``reach_m`` on either side is
 found even when the corner lies inside it. A surface turned like the corner's face is preferred, and a corner
@@ -113,12 +113,25 @@ def projected_light(solution, triangles: np.ndarray, points: np.ndarray, normals
                     face_centroids: np.ndarray, reach_m: float, method: str,
                     gather_samples_per_edge: int, lightings: list) -> np.ndarray:
     """(G, m, 3) light of each of the G ``lightings`` (as for ``corner_light``) at (m, 3) world corner points
-    with unit normals, taken (by ``corner_light``) where their normal lines meet the given solved scene triangles
-    nearest to them (rays from ``reach_m`` out on either side), on a surface turned like the corner's face. A
-    corner whose line meets none is moved along PROJECTION_INSET_STEPS of the way towards its original face's
-    centroid (``face_centroids``, (m, 3)) and tried again: a Bevel cuts a cube's edges back, so the normal line
-    through an original corner runs in the plane of a neighbouring face, just outside it, or meets the chamfer at
-    the corner. Corners that find no such surface take the nearest surface their lines meet, however it is turned
+    with unit normals, taken (by ``corner_light``) where ``projected_points`` finds them on the given solved scene
+    triangles; 0 where it finds none."""
+    hit_triangle, hit_bary = projected_points(solution, triangles, points, normals, face_centroids, reach_m)
+    light = np.zeros((len(lightings), len(points), 3))
+    found = np.flatnonzero(hit_triangle >= 0)
+    light[:, found] = corner_light(solution, hit_triangle[found], hit_bary[found], method, gather_samples_per_edge,
+                                   lightings=lightings)
+    return np.nan_to_num(light)
+
+
+def projected_points(solution, triangles: np.ndarray, points: np.ndarray, normals: np.ndarray,
+                     face_centroids: np.ndarray, reach_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(m,) scene triangle and (m, 3) barycentrics of the point where the normal line of each (m, 3) world corner
+    point with unit normals meets the given solved scene triangles nearest to it (rays from ``reach_m`` out on
+    either side), on a surface turned like the corner's face; triangle -1 where none is found. A corner whose
+    line meets none is moved along PROJECTION_INSET_STEPS of the way towards its original face's centroid
+    (``face_centroids``, (m, 3)) and tried again: a Bevel cuts a cube's edges back, so the normal line through an
+    original corner runs in the plane of a neighbouring face, just outside it, or meets the chamfer at the
+    corner. Corners that find no such surface take the nearest surface their lines meet, however it is turned
     (a curved Subdivision surface)."""
     caster = RayCaster(solution.scene.triangles[triangles], threads=1)
     hit_triangle = np.full(len(points), -1)
@@ -133,11 +146,7 @@ def projected_light(solution, triangles: np.ndarray, points: np.ndarray, normals
                 hit_triangle[missing[found]], hit_bary[missing[found]] = triangle, bary
     finally:
         caster.close()
-    light = np.zeros((len(lightings), len(points), 3))
-    found = np.flatnonzero(hit_triangle >= 0)
-    light[:, found] = corner_light(solution, hit_triangle[found], hit_bary[found], method, gather_samples_per_edge,
-                                   lightings=lightings)
-    return np.nan_to_num(light)
+    return hit_triangle, hit_bary
 
 
 def _nearest_along_normal(solution, caster, triangles, points, normals, reach_m, alignment):

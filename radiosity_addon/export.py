@@ -23,13 +23,24 @@ DEFAULT_MATERIAL = Material("(no material)", (0.8, 0.8, 0.8))
 
 
 @dataclass
+class OriginalCorners:
+    """The corners of an original mesh, world space: (loops, 3) points, unit shading normals, and the centroid
+    of each corner's face (core.vertex_light.projected_points)."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    face_centroids: np.ndarray
+
+
+@dataclass
 class ExportedObject:
     """Where one object instance's triangles sit in the exported scene.
 
     first_triangle / triangle_count: its range in the scene's input triangles; corner_loops / corner_vertices:
     (t, 3) loop and vertex of each triangle corner in the evaluated mesh; writable: a real (not instanced) mesh
     object that is baked; same_topology: its evaluated mesh has the original mesh's loops, so values map loop to loop;
-    loop_count: the original mesh's loops.
+    loop_count: the original mesh's loops; original_corners: those loops' corners where a writable object's
+    modifiers changed its topology (so that they are lit without bpy, in the bake's worker thread).
     """
 
     name: str
@@ -41,6 +52,7 @@ class ExportedObject:
     writable: bool
     same_topology: bool
     loop_count: int
+    original_corners: OriginalCorners | None = None
 
 
 @dataclass
@@ -98,11 +110,13 @@ def export_scene(context) -> Export:
             writable = False
             materials.warnings.append(f"Object '{original.name}' is linked from {source}: it lights the scene but "
                                       "its bake cannot be saved in this file (make it local to bake it).")
+        same = _same_topology(evaluated, original)
         objects.append(ExportedObject(
             name=original.name, mesh_name=original.data.name if original.type == "MESH" else "",
             first_triangle=sum(len(t) for t in columns["triangles"]), triangle_count=count, corner_loops=loops,
-            corner_vertices=vertices, writable=writable, same_topology=_same_topology(evaluated, original),
-            loop_count=len(original.data.loops) if original.type == "MESH" else 0))
+            corner_vertices=vertices, writable=writable, same_topology=same,
+            loop_count=len(original.data.loops) if original.type == "MESH" else 0,
+            original_corners=None if same or not writable else original_corners(original)))
         names.append(name)
         part.update(casts_only=np.full(count, mode == "SHADOW_ONLY"), object_index=np.full(count, len(names) - 1),
                     terminator_offset=np.full(count, _terminator_offset(original)))
@@ -217,6 +231,22 @@ def loop_triangles(mesh) -> tuple[np.ndarray, np.ndarray]:
     mesh.loop_triangles.foreach_get("vertices", vertices)
     mesh.loop_triangles.foreach_get("loops", loops)
     return vertices.reshape(-1, 3), loops.reshape(-1, 3)
+
+
+def original_corners(obj) -> OriginalCorners:
+    """The corners of a mesh object's original mesh (before modifiers), world space."""
+    mesh, matrix = obj.data, np.array(obj.matrix_world)
+    vertex = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", vertex)
+    centres, start, total = (np.empty(len(mesh.polygons) * width, dtype=kind) for width, kind in
+                             ((3, np.float32), (1, np.int64), (1, np.int64)))
+    for name, values in (("center", centres), ("loop_start", start), ("loop_total", total)):
+        mesh.polygons.foreach_get(name, values)
+    order = np.argsort(start)  # a polygon's loops are contiguous from its loop_start
+    polygon_of_loop = np.repeat(order, total[order])
+    centres = centres.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+    return OriginalCorners(world_positions(mesh, matrix)[vertex], world_corner_normals(mesh, matrix),
+                           centres[polygon_of_loop])
 
 
 def world_positions(mesh, matrix: np.ndarray) -> np.ndarray:

@@ -28,8 +28,7 @@ from .lightmaps import LightmapPlan, checked, plan_lightmap, write_lightmap
 from .presets import bake_settings, corner_gather_samples, lightmap_settings
 from .relighting import check_cache_path, load_cache, stage_cache, transport_key
 from .settings import UNGROUPED, UserSettings, light_group_output
-from .writeback import (check_attribute_name_free, loop_light, objects_loop_light, write_radiosity_mesh,
-                        write_vertex_colors)
+from .writeback import check_attribute_name_free, objects_loop_light, write_radiosity_mesh, write_vertex_colors
 
 @dataclass
 class Job:
@@ -173,20 +172,12 @@ def _solve(job: Job, progress, cancelled) -> None:
                          for scene_triangle, corner_uv in plan.page_triangles]
     if job.user.vertex_colors:
         started = time.perf_counter()
-        _keep_corner_light(job, objects_loop_light(
-            [item for item in job.export.objects if item.writable], solution, job.export.scene_index_of_input(),
-            job.user.vertex_indirect, corner_gather_samples(job.user), _lightings(job), progress, cancelled))
+        light = objects_loop_light([item for item in job.export.objects if item.writable], solution,
+                                   job.export.scene_index_of_input(), job.user.vertex_indirect,
+                                   corner_gather_samples(job.user), list(job.basis.values()) or [solution],
+                                   progress, cancelled)
+        job.corner_basis = {name: dict(zip(job.basis or [""], parts)) for name, parts in light.items()}
         job.stats["timings"] = {**job.stats["timings"], "vertex colours": time.perf_counter() - started}
-
-
-def _lightings(job: Job) -> list:
-    """The solutions the outputs are mixed from: the basis's parts, or the one solution."""
-    return list(job.basis.values()) or [job.solution]
-
-
-def _keep_corner_light(job: Job, light: dict[str, np.ndarray]) -> None:
-    """Keep each object's (G, loops, 3) light per loop in ``job.corner_basis``, by part of the basis."""
-    job.corner_basis.update({name: dict(zip(job.basis or [""], parts)) for name, parts in light.items()})
 
 
 def write_outputs(job: Job) -> dict:
@@ -214,7 +205,7 @@ def apply(job: Job, staged: StagedFiles) -> dict:
             group_files[group] = sorted({entry["image"] for entry in group_entries})
             warnings += more
     if job.user.vertex_colors:
-        objects, more = write_vertex_colors(job.export, job.user, lambda item, obj: _corner_light(job, item, obj),
+        objects, more = write_vertex_colors(job.export, job.user, lambda item: _corner_light(job, item),
                                             job.light_groups)
         warnings += more
     objects = _merge(objects, entries)
@@ -270,14 +261,9 @@ def _radiosity_mesh(job: Job) -> tuple:
     return vertices, triangles, mix(dict(zip(job.basis, light)), job.weights, list(job.weights))
 
 
-def _corner_light(job: Job, item, obj) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def _corner_light(job: Job, item) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """An object's light per mesh loop, whole and per light group written apart, mixed from the basis (each
-    part's light traced in the solve, now for a mesh whose modifiers changed its loops, or read from a relighting
-    cache)."""
-    if item.name not in job.corner_basis:
-        _keep_corner_light(job, {item.name: loop_light(item, job.solution, job.export.scene_index_of_input(), obj,
-                                                       job.user.vertex_indirect, corner_gather_samples(job.user),
-                                                       _lightings(job))})
+    part's light traced in the solve, or read from a relighting cache)."""
     basis = job.corner_basis[item.name]
     return mix(basis, job.weights, list(job.weights)), {group: mix(basis, job.weights, job.members[group])
                                                          for group in job.light_groups}

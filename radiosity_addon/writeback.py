@@ -12,8 +12,8 @@ import bpy
 import numpy as np
 
 from ..core import BakeCancelled, SceneError
-from ..core.vertex_light import corner_light, projected_light
-from .export import RADIOSITY_MESH_TAG, Export, ExportedObject, world_corner_normals, world_positions
+from ..core.vertex_light import corner_light, projected_points
+from .export import RADIOSITY_MESH_TAG, Export, ExportedObject
 from .settings import UserSettings, light_group_output
 
 OWNED_ATTRIBUTE = "radiosity_attribute"
@@ -39,7 +39,7 @@ def _owned(mesh) -> set[str]:
 def write_vertex_colors(export: Export, user: UserSettings, light_of,
                         light_groups=()) -> tuple[list[dict], list[str]]:
     """Write the light of every baked object into its mesh's colour attribute (user.attribute_name, per corner or
-    per vertex: user.vertex_domain); ``light_of(item, obj)`` gives an object's (loops, 3) light per mesh loop and
+    per vertex: user.vertex_domain); ``light_of(item)`` gives an object's (loops, 3) light per mesh loop and
     that of each of the ``light_groups``, which go into attributes of their own (settings.light_group_output).
     Returns per-object report entries and warnings. An object that shares its mesh with one written before gets
     its own copy of the mesh first (user.own_mesh_copies), as Blender's Make Single User > Object Data does; else
@@ -59,7 +59,7 @@ def write_vertex_colors(export: Export, user: UserSettings, light_of,
             obj.data = mesh = mesh.copy()
             entry["own_mesh_copy"] = mesh.name
             copied.append(item.name)
-        light, groups = light_of(item, obj)
+        light, groups = light_of(item)
         _write_attribute(mesh, user.attribute_name, light, user.vertex_domain)
         for group in light_groups:
             _write_attribute(mesh, light_group_output(user.attribute_name, group), groups[group], user.vertex_domain,
@@ -75,71 +75,55 @@ def write_vertex_colors(export: Export, user: UserSettings, light_of,
     return outputs, warnings
 
 
-def loop_light(item: ExportedObject, solution, kept: np.ndarray, obj, method: str, gather_samples_per_edge: int,
-               lightings: list) -> np.ndarray:
-    """(G, loops, 3) light per loop of the original mesh for each of the G ``lightings`` (``solution`` or parts of
-    its light, core.vertex_light.corner_light: direct light traced at each corner, indirect light by ``method``,
-    the gather's rays shared)."""
-    if item.same_topology:
-        return _objects_light([item], solution, kept, method, gather_samples_per_edge, lightings)[item.name]
-    triangles = kept[item.first_triangle + np.arange(item.triangle_count)]
-    return _projected_light(item, solution, triangles, obj, method, gather_samples_per_edge, lightings)
-
-
 def objects_loop_light(items: list[ExportedObject], solution, kept: np.ndarray, method: str,
                        gather_samples_per_edge: int, lightings: list, progress, cancelled) -> dict[str, np.ndarray]:
-    """``loop_light`` of each of ``items`` whose modifiers kept the mesh's loops (no bpy: runs in the bake's
-    worker thread), by name, traced for many objects at once: at least CORNERS_PER_BATCH corners per call of
-    core.vertex_light.corner_light, so that a level's many small props do not each pay a call's fixed work.
-    Reports progress and raises BakeCancelled between calls."""
-    items = [item for item in items if item.same_topology]
+    """(G, loops, 3) light per loop of each object's original mesh, by name, for each of the G ``lightings``
+    (``solution`` or parts of its light; core.vertex_light.corner_light: direct light traced at each corner,
+    indirect light by ``method``, the gather's rays shared). No bpy: runs in the bake's worker thread. Corners
+    are lit for many objects at once, at least CORNERS_PER_BATCH per call (the last call fewer), so that a level's
+    many small props do not each pay a call's fixed work; progress is reported and BakeCancelled raised between
+    calls."""
     light, batch, corners = {}, [], 0
     for number, item in enumerate(items, 1):
-        batch.append(item)
-        corners += 3 * item.triangle_count
+        batch.append((item, *_surface_corners(item, solution, kept)))
+        corners += len(batch[-1][1])
         if corners >= CORNERS_PER_BATCH or number == len(items):
             if cancelled():
                 raise BakeCancelled("Bake cancelled while lighting the colour attributes' corners.")
-            light.update(_objects_light(batch, solution, kept, method, gather_samples_per_edge, lightings))
+            light.update(_batch_light(batch, solution, method, gather_samples_per_edge, lightings))
             progress(number / len(items), f"Vertex colours: {number} of {len(items)} objects lit")
             batch, corners = [], 0
     return light
 
 
-def _objects_light(items, solution, kept, method, gather_samples_per_edge, lightings) -> dict[str, np.ndarray]:
-    """(G, loops, 3) light per loop of each same-topology object in ``items``, from one corner_light call."""
-    triangles = [kept[item.first_triangle + np.arange(item.triangle_count)] for item in items]
-    valid = [scene_triangle >= 0 for scene_triangle in triangles]
-    corners = np.concatenate([scene_triangle[kept_ones] for scene_triangle, kept_ones in zip(triangles, valid)])
-    values = corner_light(solution, np.repeat(corners, 3), np.tile(np.eye(3), (len(corners), 1)), method,
-                          gather_samples_per_edge, lightings=lightings)
+def _surface_corners(item: ExportedObject, solution, kept: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An object's corners as (n,) scene triangles, (n, 3) barycentrics and the (n,) loop of each: its solved
+    triangles' corners; for a mesh whose modifiers changed its topology, the points where its original corners
+    project onto its solved surface (core.vertex_light.projected_points; loops that find none stay black)."""
+    triangles = kept[item.first_triangle + np.arange(item.triangle_count)]
+    corners = item.original_corners
+    if corners is None:
+        valid = triangles >= 0
+        return (np.repeat(triangles[valid], 3), np.tile(np.eye(3), (int(valid.sum()), 1)),
+                item.corner_loops[valid].ravel())
+    hit, bary = projected_points(solution, triangles[triangles >= 0], corners.points, corners.normals,
+                                 corners.face_centroids, PROJECTION_REACH * solution.scene.size_m)
+    found = np.flatnonzero(hit >= 0)
+    return hit[found], bary[found], found
+
+
+def _batch_light(batch: list, solution, method: str, gather_samples_per_edge: int, lightings: list) -> dict:
+    """(G, loops, 3) light per loop of each object in ``batch`` (object, scene triangles, barycentrics, loops),
+    from one corner_light call; NaN (unsolved) and loops without a corner point are 0."""
+    values = corner_light(solution, np.concatenate([triangles for _, triangles, _, _ in batch]),
+                          np.concatenate([bary for _, _, bary, _ in batch]), method, gather_samples_per_edge,
+                          lightings=lightings)
     light, start = {}, 0
-    for item, kept_ones in zip(items, valid):
-        count = 3 * int(kept_ones.sum())
-        loops = np.zeros((len(lightings), item.loop_count, 3))
-        loops[:, item.corner_loops[kept_ones].ravel()] = values[:, start:start + count]
-        light[item.name], start = np.nan_to_num(loops), start + count
+    for item, triangles, _, loops in batch:
+        per_loop = np.zeros((len(lightings), item.loop_count, 3))
+        per_loop[:, loops] = values[:, start:start + len(triangles)]
+        light[item.name], start = np.nan_to_num(per_loop), start + len(triangles)
     return light
-
-
-def _projected_light(item, solution, triangles, obj, method: str, gather_samples_per_edge: int,
-                     lightings: list) -> np.ndarray:
-    """Light for meshes whose modifiers changed the topology: each original corner takes the light of the nearest
-    point of the object's baked surface along its normal, or a little way into its face where that line misses
-    (core.vertex_light.projected_light)."""
-    mesh, matrix = obj.data, np.array(obj.matrix_world)
-    vertex = np.empty(len(mesh.loops), dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", vertex)
-    centres, start, total = (np.empty(len(mesh.polygons) * width, dtype=kind) for width, kind in
-                             ((3, np.float32), (1, np.int64), (1, np.int64)))
-    for name, values in (("center", centres), ("loop_start", start), ("loop_total", total)):
-        mesh.polygons.foreach_get(name, values)
-    order = np.argsort(start)  # a polygon's loops are contiguous from its loop_start
-    polygon_of_loop = np.repeat(order, total[order])
-    centres = centres.reshape(-1, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
-    return projected_light(solution, triangles[triangles >= 0], world_positions(mesh, matrix)[vertex],
-                           world_corner_normals(mesh, matrix), centres[polygon_of_loop],
-                           PROJECTION_REACH * solution.scene.size_m, method, gather_samples_per_edge, lightings)
 
 
 def _write_attribute(mesh, name: str, light: np.ndarray, domain: str = "CORNER", group: bool = False) -> None:
