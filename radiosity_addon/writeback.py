@@ -3,8 +3,9 @@
 Only what this add-on made is ever replaced: a mesh remembers the name of the attribute we wrote
 (``mesh["radiosity_attribute"]``, and the light groups' in ``mesh["radiosity_group_attributes"]``) and the radiosity
 mesh object carries ``obj["radiosity_mesh"]``. Existing UV maps,
-materials and other colour attributes are never touched. Everything runs in the main thread, after the solve, so a
-failed or cancelled bake has changed nothing.
+materials and other colour attributes are never touched. The writing runs in the main thread, after the solve, so
+a failed or cancelled bake has changed nothing; the light of the mesh corners is traced before, in the solve
+(``objects_loop_light``, which reads no bpy data).
 """
 from __future__ import annotations
 
