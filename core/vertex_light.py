@@ -109,20 +109,6 @@ def _distinct(solution, scene_triangle, points, normals, shading) -> tuple[np.nd
     return first, shared.ravel()
 
 
-def projected_light(solution, triangles: np.ndarray, points: np.ndarray, normals: np.ndarray,
-                    face_centroids: np.ndarray, reach_m: float, method: str,
-                    gather_samples_per_edge: int, lightings: list) -> np.ndarray:
-    """(G, m, 3) light of each of the G ``lightings`` (as for ``corner_light``) at (m, 3) world corner points
-    with unit normals, taken (by ``corner_light``) where ``projected_points`` finds them on the given solved scene
-    triangles; 0 where it finds none."""
-    hit_triangle, hit_bary = projected_points(solution, triangles, points, normals, face_centroids, reach_m)
-    light = np.zeros((len(lightings), len(points), 3))
-    found = np.flatnonzero(hit_triangle >= 0)
-    light[:, found] = corner_light(solution, hit_triangle[found], hit_bary[found], method, gather_samples_per_edge,
-                                   lightings=lightings)
-    return np.nan_to_num(light)
-
-
 def projected_points(solution, triangles: np.ndarray, points: np.ndarray, normals: np.ndarray,
                      face_centroids: np.ndarray, reach_m: float) -> tuple[np.ndarray, np.ndarray]:
     """(m,) scene triangle and (m, 3) barycentrics of the point where the normal line of each (m, 3) world corner
