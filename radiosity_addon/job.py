@@ -28,7 +28,8 @@ from .lightmaps import LightmapPlan, checked, plan_lightmap, write_lightmap
 from .presets import bake_settings, corner_gather_samples, lightmap_settings
 from .relighting import check_cache_path, load_cache, stage_cache, transport_key
 from .settings import UNGROUPED, UserSettings, light_group_output
-from .writeback import check_attribute_name_free, objects_loop_light, write_radiosity_mesh, write_vertex_colors
+from .writeback import (check_attribute_name_free, colour_holders, objects_loop_light, write_radiosity_mesh,
+                        write_vertex_colors)
 
 @dataclass
 class Job:
@@ -172,7 +173,7 @@ def _solve(job: Job, progress, cancelled) -> None:
                          for scene_triangle, corner_uv in plan.page_triangles]
     if job.user.vertex_colors:
         started = time.perf_counter()
-        light = objects_loop_light([item for item in job.export.objects if item.writable], solution,
+        light = objects_loop_light(colour_holders(job.export.objects, job.user.own_mesh_copies), solution,
                                    job.export.scene_index_of_input(), job.user.vertex_indirect,
                                    corner_gather_samples(job.user), list(job.basis.values()) or [solution],
                                    progress, cancelled)

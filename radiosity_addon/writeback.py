@@ -46,11 +46,12 @@ def write_vertex_colors(export: Export, user: UserSettings, light_of,
     its own copy of the mesh first (user.own_mesh_copies), as Blender's Make Single User > Object Data does; else
     it keeps the first one's colours, with a warning."""
     written, outputs, warnings, copied = {}, [], [], []
+    holders = {item.name for item in colour_holders(export.objects, user.own_mesh_copies)}
     for item in export.objects:
         if not item.writable:
             continue
         obj, mesh = bpy.data.objects[item.name], bpy.data.meshes[item.mesh_name]
-        if mesh.name in written and not user.own_mesh_copies:
+        if item.name not in holders:
             warnings.append(f"Object '{item.name}' shares mesh '{mesh.name}' with '{written[mesh.name]}': its colour "
                             "attribute holds the light of the first of them.")
             continue
@@ -74,6 +75,19 @@ def write_vertex_colors(export: Export, user: UserSettings, light_of,
         warnings.append(f"{len(copied)} object(s) that shared a mesh got their own copy of it, to hold their own "
                         f"light (Make Single User; Undo reverses it): {names}.")
     return outputs, warnings
+
+
+def colour_holders(objects: list[ExportedObject], own_mesh_copies: bool) -> list[ExportedObject]:
+    """The writable objects whose own light a vertex-colour bake writes: all of them with ``own_mesh_copies``
+    (each sharer gets its own mesh), else the first of the objects that share a mesh (the others show its
+    colours, so their corners are not lit)."""
+    writable = [item for item in objects if item.writable]
+    if own_mesh_copies:
+        return writable
+    first = {}
+    for item in writable:
+        first.setdefault(item.mesh_name, item)
+    return list(first.values())
 
 
 def objects_loop_light(items: list[ExportedObject], solution, kept: np.ndarray, method: str,
