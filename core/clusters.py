@@ -23,6 +23,7 @@ import numpy as np
 
 from .geometry import triangle_areas, triangle_unit_normals
 from .mesh import CHILDREN, ElementMesh
+from .ragged import row_groups
 from .raycast import RayCaster
 from .scene import Scene
 
@@ -91,14 +92,13 @@ def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_s
     longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
     alone = np.where(longest >= SMALL_PIECE * element_size_m, np.arange(len(nodes)), -1)
     key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None]], axis=1)
-    _, element = np.unique(key, axis=0, return_inverse=True)
-    element = element.ravel()
+    element, _ = row_groups(key)
     lift = LIFT_FRACTION * element_size_m
     for round_number in range(VISIBILITY_ROUNDS):
         blocked = _blocked_from_centre(caster, element, centroid, normal, area, lift, offset_m)
         if not blocked.any():
             break
-        element = np.unique(np.stack([element, blocked], axis=1), axis=0, return_inverse=True)[1].ravel()
+        element, _ = row_groups(np.stack([element, blocked], axis=1))
     clusters = _clusters(nodes, element, corners, area, normal, centroid, piece_reflectance)
     return replace(clusters, emitted_exitance=emitted_exitance(clusters, mesh, scene))
 

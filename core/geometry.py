@@ -5,6 +5,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from .ragged import row_groups
+
 
 def lengths(vectors: np.ndarray) -> np.ndarray:
     """Euclidean lengths along the last axis (einsum: numpy's sum over a length-3 axis is many times slower)."""
@@ -65,7 +67,7 @@ def duplicate_sides(triangles: np.ndarray, tolerance_m: float) -> np.ndarray:
     corners = np.round(triangles / tolerance_m).astype(np.int64)
     order = np.lexsort((corners[..., 2], corners[..., 1], corners[..., 0]), axis=-1)  # the same for every copy
     canonical = np.take_along_axis(corners, order[..., None], axis=1).reshape(count, 9)
-    group = np.unique(canonical, axis=0, return_inverse=True)[1].ravel()
+    group, _ = row_groups(canonical)
     first = np.full(group.max(initial=-1) + 1, count)
     np.minimum.at(first, group, np.arange(count))
     normals = triangle_unit_normals(triangles)

@@ -20,6 +20,7 @@ from .clusters import SMALL_PIECE, normal_bins
 from .errors import SceneError
 from .geometry import triangle_unit_normals
 from .parallel import steps_in_flight
+from .ragged import row_groups
 
 DEFAULT_SHARE = 0.75
 GIB = 2 ** 30
@@ -107,7 +108,7 @@ def element_count(triangles_m: np.ndarray, element_size_m: float) -> int:
     origin = centroid.min(axis=0) if len(centroid) else np.zeros(3)
     keys = np.concatenate([np.floor((centroid - origin) / element_size_m).astype(np.int64),
                            normal_bins(triangle_unit_normals(triangles_m[small]))[:, None]], axis=1)
-    grouped = len(np.unique(keys, axis=0)) if len(keys) else 0
+    grouped = len(row_groups(keys)[1])
     return int(pieces[alone].sum()) + grouped
 
 

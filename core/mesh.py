@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .geometry import triangle_areas, triangle_unit_normals, uniform_subdivision
+from .ragged import row_groups
 from .raycast import RayCaster
 from .scene import MAX_REFLECTANCE, Scene
 from .surface_probes import inside_closed_geometry
@@ -235,5 +236,5 @@ def weld_vertices(mesh: ElementMesh, nodes: np.ndarray, tolerance_m: float) -> t
     corners = mesh.corners(nodes).reshape(-1, 3)
     obj = np.repeat(mesh.triangle_object[mesh.node_triangle[nodes]], 3)
     key = np.concatenate([obj[:, None], np.round(corners / tolerance_m).astype(np.int64)], axis=1)
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    inverse, first = row_groups(key)
     return corners[first], inverse.reshape(-1, 3)

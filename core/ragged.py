@@ -1,4 +1,5 @@
-"""Index arithmetic for ragged groups (a flat array cut into consecutive runs of given sizes)."""
+"""Index arithmetic for groups: ragged runs (a flat array cut into consecutive runs of given sizes) and rows that
+share a key."""
 from __future__ import annotations
 
 import numpy as np
@@ -20,3 +21,16 @@ def budget_ranges(counts: np.ndarray, budget: int):
         stop = max(start + 1, int(np.searchsorted(ends, base + budget, side="right")))
         yield start, stop
         start = stop
+
+
+def row_groups(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(m,) the group of each row of the (m, k) integer ``keys``, groups numbered in the rows' lexicographic order,
+    and (g,) the first row of each group: what np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    gives, by a stable sort per column instead of a sort of whole rows, which is about six times slower."""
+    order = np.lexsort(keys.T[::-1])
+    ordered = keys[order]
+    new = np.ones(len(keys), dtype=bool)
+    new[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    group = np.empty(len(keys), dtype=np.int64)
+    group[order] = np.cumsum(new) - 1
+    return group, order[new]

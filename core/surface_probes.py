@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import inset, lengths, tangent_frames, triangle_unit_normals
-from .ragged import budget_ranges, concatenated_ranges
+from .ragged import budget_ranges, concatenated_ranges, row_groups
 from .raycast import RayCaster
 
 CANDIDATES_PER_CHUNK = 4_000_000
@@ -103,8 +103,8 @@ def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.nda
     offsets = np.einsum("tk,tk->t", normals, triangles_m[:, 0])
     keys = np.concatenate([np.round(normals * PLANE_NORMAL_STEPS), np.round(offsets / tolerance_m)[:, None]],
                           axis=1).astype(np.int64)
-    planes, plane_of = np.unique(keys, axis=0, return_inverse=True)
-    return planes, plane_of.ravel(), normals
+    plane_of, first = row_groups(keys)
+    return keys[first], plane_of, normals
 
 
 def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:

@@ -33,6 +33,7 @@ from .errors import SettingsError
 from .gather import final_gather_parts
 from .geometry import lengths, tangent_frames, triangle_unit_normals
 from .parallel import MAX_STEPS_IN_FLIGHT, steps_in_flight
+from .ragged import row_groups
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
@@ -105,8 +106,8 @@ def _distinct(solution, scene_triangle, points, normals, shading) -> tuple[np.nd
     key = np.concatenate([np.round(points / solution.offset_m), np.round(normals * NORMAL_STEPS),
                           np.round(shading * NORMAL_STEPS), solution.scene.material_index[scene_triangle][:, None]],
                          axis=1).astype(np.int64)
-    _, first, shared = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    return first, shared.ravel()
+    shared, first = row_groups(key)
+    return first, shared
 
 
 def projected_points(solution, triangles: np.ndarray, points: np.ndarray, normals: np.ndarray,

@@ -1,10 +1,11 @@
-"""Patches and elements: subdivision, point location, welding, and determinism of a whole bake."""
+"""Patches and elements: subdivision, point location, welding, grouping by key, and determinism of a whole bake."""
 import numpy as np
 import pytest
 
 from core import BakeSettings, Material, PointLight, Scene, SceneError, SunLight, bake
 from core.geometry import triangle_areas, uniform_subdivision
 from core.mesh import build_mesh, elements_of, locate_uniform, weld_vertices
+from core.ragged import row_groups
 from core.texture import ReflectanceTexture
 from shapes import box_faces, quad
 
@@ -105,3 +106,14 @@ def test_texture_with_reflectance_one_is_refused():
     with pytest.raises(SceneError, match="glowing paint"):
         Scene(quad((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)), np.zeros(2, int), [bad],
               lights=[SunLight("sun", (0, 0, -1), 1.0)])
+
+
+@pytest.mark.parametrize("columns", [1, 3, 9])
+def test_row_groups_number_rows_as_numpy_unique_does(columns):
+    """core.ragged.row_groups against np.unique over rows: the same group per row, numbered in the same order,
+    and the same first row of each group, on keys with negatives and many repeats (and on none)."""
+    keys = np.random.default_rng(columns).integers(-3, 4, (5000, columns))
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    group, first_row = row_groups(keys)
+    assert np.array_equal(group, inverse.ravel()) and np.array_equal(first_row, first)
+    assert [len(part) for part in row_groups(keys[:0])] == [0, 0]
