@@ -47,7 +47,8 @@ FORM_FACTOR_LIMIT = 0.02      # nor is a node accepted whose area could subtend 
 NEAR_SHARE = 0.02             # a sample square closer than this (a / (pi r^2)) takes Lambert's exact factor
 COVERAGE_SAMPLES = 8          # per edge: 64 stratified rays per receiver measure how much of its hemisphere is covered
 PAIRS_PER_STEP = 1 << 16      # link candidates evaluated at once (memory: ~ 24 samples x 200 bytes each)
-RECEIVERS_PER_STEP = 4096     # receivers traversed at once
+RECEIVERS_PER_STEP = 1024     # receivers traversed at once: blocks small enough that the steps in flight
+                              # keep every core busy to the end
 
 
 @dataclass
