@@ -107,17 +107,30 @@ class BakeSettings:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
+def ray_offset_m(scene: Scene) -> float:
+    """How far off a surface the rays that leave it start: RAY_OFFSET_FRACTION of the scene's size."""
+    return RAY_OFFSET_FRACTION * scene.size_m
+
+
+def ray_caster(scene: Scene, settings: BakeSettings, progress: Progress = no_progress) -> RayCaster:
+    """The ray-casting scene of ``scene.triangles`` on the settings' threads (saying so first when the backend
+    needs time on its first use)."""
+    if first_use_message():  # Warp compiles its kernels on a machine's first bake: say so before the wait
+        progress(0.0, first_use_message())
+    return RayCaster(scene.triangles, settings.threads or None)
+
+
 def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progress = no_progress,
-         cancelled=never_cancelled) -> Solution:
-    """Solve the scene's diffuse light; raises BakeCancelled if ``cancelled()`` turns True."""
+         cancelled=never_cancelled, caster: RayCaster | None = None) -> Solution:
+    """Solve the scene's diffuse light; raises BakeCancelled if ``cancelled()`` turns True. ``caster``: a
+    ray-casting scene of ``scene.triangles`` already built, for a caller that shares it with work of its own
+    alongside the solve (lightmap texels planned meanwhile); else the bake builds one."""
     emissive = scene.emitted_radiance.max(axis=1)[scene.material_index] > 0
     check_bake_memory(scene.triangles[~scene.casts_only], scene.triangles[emissive], settings.element_size_m,
                       settings.patch_size_m, settings.max_memory_gb or default_limit_gb(), settings.threads)
     timer = Timer()
-    offset = RAY_OFFSET_FRACTION * scene.size_m
-    if first_use_message():  # Warp compiles its kernels on a machine's first bake: say so before the wait
-        progress(0.0, first_use_message())
-    caster = RayCaster(scene.triangles, settings.threads or None)
+    offset = ray_offset_m(scene)
+    caster = caster or ray_caster(scene, settings, progress)
     solve_scene = _hierarchical if settings.solver == "hierarchical" else _classic
     mesh, elements, state, ambient, counts = solve_scene(scene, settings, caster, offset, timer, progress,
                                                          cancelled)

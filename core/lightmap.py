@@ -144,13 +144,23 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
                   settings: LightmapSettings = LightmapSettings(), progress: Progress = no_progress,
                   cancelled=never_cancelled, groups: dict | None = None) -> Lightmap:
     """Light the texels of one atlas image: ``scene_triangle`` (t,) are the solved scene triangles it holds and
-    ``corner_uv`` (t, 3, 2) their UVs in [0, 1]. The three stages, ``plan_texels``, ``light_chunk`` per chunk and
-    ``finish_lightmap``, with chunks side by side (core.parallel). With ``groups`` (light group -> its Solution,
-    core.bake.bake_light_groups), the texels planned once are lit by each group's solution in turn: the page's
-    ``groups`` hold each group's light and its ``light`` their sum."""
+    ``corner_uv`` (t, 3, 2) their UVs in [0, 1]: ``plan_texels``, then ``light_texels``."""
     timer = Timer()
     plan = plan_texels(solution, scene_triangle, corner_uv, width, height, settings)
     timer.lap("texels")
+    return light_texels(solution, plan, progress, cancelled, groups, timer.laps)
+
+
+def light_texels(solution, plan: TexelPlan, progress: Progress = no_progress, cancelled=never_cancelled,
+                 groups: dict | None = None, seconds: dict | None = None) -> Lightmap:
+    """The page of a plan: ``light_chunk`` per chunk, chunks side by side (core.parallel), then
+    ``finish_lightmap``. A plan made before the solve (``sample_texels``) takes its indirect method from the
+    solution here. With ``groups`` (light group -> its Solution, core.bake.bake_light_groups), the texels planned
+    once are lit by each group's solution in turn: the page's ``groups`` hold each group's light and its
+    ``light`` their sum. ``seconds``: the phases timed before (the plan's), reported with the page's."""
+    plan = with_indirect_method(plan, solution)
+    timer = Timer()
+    timer.laps.update(seconds or {})
     light, chunk_seconds = TexelLight.zeros(plan.texel_count, len(groups or [None])), {}
 
     def lit(index: int) -> tuple[TexelLight, dict]:
@@ -160,12 +170,12 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
     # The first chunk alone builds the tables the solution computes on first use; the others then share them.
     chunks = range(plan.chunk_count)
     lights = chain(map(lit, chunks[:1]), ordered_map(lit, chunks[1:], steps_in_flight(solution.caster.threads)))
-    for index, (part, seconds) in zip(chunks, lights):
+    for index, (part, laps) in zip(chunks, lights):
         if cancelled():
             raise BakeCancelled("Bake cancelled while lighting the lightmap.")
         chunk = plan.chunk(index)
         light.put(chunk, part)
-        for phase, lap in seconds.items():
+        for phase, lap in laps.items():
             chunk_seconds[phase] = chunk_seconds.get(phase, 0.0) + lap
         progress(chunk.stop / plan.texel_count, f"Lightmap: {chunk.stop} of {plan.texel_count} texels lit")
     timer.share(chunk_seconds)
@@ -175,19 +185,35 @@ def bake_lightmap(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, w
 def plan_texels(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int, height: int,
                 settings: LightmapSettings = LightmapSettings()) -> TexelPlan:
     """The texels of one page (``bake_lightmap``'s arguments), their sample points and the indirect method."""
+    plan = sample_texels(solution.scene, solution.caster, solution.offset_m, scene_triangle, corner_uv, width,
+                         height, settings)
+    return with_indirect_method(plan, solution)
+
+
+def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int,
+                  height: int, settings: LightmapSettings = LightmapSettings()) -> TexelPlan:
+    """``plan_texels`` from the scene alone, its ray-casting scene and ray offset (core.bake.ray_offset_m), so
+    that it can run before or during the solve: the indirect method is left as ``settings`` have it."""
     texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
     tri = np.asarray(scene_triangle, dtype=np.int64)[texels.triangle]
-    scene, offset = solution.scene, solution.offset_m
-    points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels, 4 * offset)
-    contact = face_to_face_contact(scene.triangles, tri, points, 4 * offset)
+    points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels,
+                                    4 * offset_m)
+    contact = face_to_face_contact(scene.triangles, tri, points, 4 * offset_m)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
-    points, moved = push_out_of_geometry(solution.caster, scene.triangles, points, normals, reach, offset)
+    points, moved = push_out_of_geometry(caster, scene.triangles, points, normals, reach, offset_m)
     sub_points, sub_bary = _subtexel_points(scene.triangles[tri], texels, corner_uv,
-                                            settings.subtexel_samples_per_edge, points, moved, 4 * offset)
-    if settings.indirect == "auto":
-        settings = replace(settings, indirect="gather" if gather_pays(solution) else "interpolate")
+                                            settings.subtexel_samples_per_edge, points, moved, 4 * offset_m)
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
                      sub_bary, moved, contact, settings, TEXELS_PER_CHUNK)
+
+
+def with_indirect_method(plan: TexelPlan, solution) -> TexelPlan:
+    """The plan with the automatic indirect method settled for the solution: a final gather where it pays
+    (core.gather.gather_pays), else interpolation."""
+    if plan.settings.indirect != "auto":
+        return plan
+    method = "gather" if gather_pays(solution) else "interpolate"
+    return replace(plan, settings=replace(plan.settings, indirect=method))
 
 
 def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = None,

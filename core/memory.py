@@ -35,6 +35,9 @@ LINK_WORKSPACE = 800 * 2 ** 20  # candidate links being weighed by one step (a f
 BYTES_PER_LINKED_SIDE = 30_000  # Medium: about 235 links per side, twice while they are refined, and their
                                 # sparse transfer in the solve
 BYTES_PER_TEXEL = 3_000         # a page's covered texels while lit: points, footprints, rays, interpolation
+BYTES_PER_PLANNED_TEXEL = 2_000 # every page's texels planned alongside the solve: the plan kept until the page
+                                # is lit (core.lightmap.TexelPlan, 9 footprint points a texel: 600 bytes) and the
+                                # planning's arrays at the solve's peak
 BYTES_PER_IMAGE_TEXEL = 16      # every page's float32 light and masks, kept until written
 COARSENING = 1.25               # each adaptation makes elements this much larger
 MOST_COARSENING = 4.0           # ... up to this factor, else the bake is refused
@@ -113,25 +116,27 @@ def element_count(triangles_m: np.ndarray, element_size_m: float) -> int:
 
 
 def estimate_bake(triangles_m: np.ndarray, element_size_m: float, covered_texels: int = 0,
-                  image_texels: int = 0, threads: int = 0) -> MemoryEstimate:
+                  image_texels: int = 0, threads: int = 0, planned_texels: int = 0) -> MemoryEstimate:
     """What a hierarchical bake of these (T, 3, 3) receiving triangles needs on ``threads`` threads (0: every
     core), with lightmap pages lit one at a time (``covered_texels``: the largest page's texels that charts
-    cover) whose images (``image_texels`` in all) are kept until they are written."""
+    cover) whose images (``image_texels`` in all) are kept until they are written, and whose texels
+    (``planned_texels``: every page's covered texels) are planned alongside the solve."""
     pieces = int(piece_counts(triangles_m, element_size_m).sum())
     sides = 2 * element_count(triangles_m, element_size_m)
     persistent = (FIXED_BYTES + BYTES_PER_TRIANGLE * len(triangles_m) + BYTES_PER_PIECE * pieces +
-                  BYTES_PER_SOLVED_SIDE * sides + BYTES_PER_IMAGE_TEXEL * image_texels)
+                  BYTES_PER_SOLVED_SIDE * sides + BYTES_PER_IMAGE_TEXEL * image_texels +
+                  BYTES_PER_PLANNED_TEXEL * planned_texels)
     return MemoryEstimate({"solve": LINK_WORKSPACE * steps_in_flight(threads) + BYTES_PER_LINKED_SIDE * sides,
                            "lightmap texels": BYTES_PER_TEXEL * covered_texels}, persistent)
 
 
 def fit_to_memory(triangles_m: np.ndarray, element_size_m: float, limit_gb: float, covered_texels: int = 0,
-                  image_texels: int = 0, threads: int = 0) -> tuple[float, MemoryEstimate]:
+                  image_texels: int = 0, threads: int = 0, planned_texels: int = 0) -> tuple[float, MemoryEstimate]:
     """The element size (the one asked for, or up to MOST_COARSENING times larger) at which the estimate fits in
     ``limit_gb``; raises MemoryLimitError naming the figures and the settings to change when none does."""
     size = element_size_m
     while True:
-        estimate = estimate_bake(triangles_m, size, covered_texels, image_texels, threads)
+        estimate = estimate_bake(triangles_m, size, covered_texels, image_texels, threads, planned_texels)
         if estimate.peak_bytes <= limit_gb * GIB:
             return size, estimate
         if size * COARSENING > MOST_COARSENING * element_size_m:

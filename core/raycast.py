@@ -10,6 +10,7 @@ arrays are numpy; there is never a Python loop per ray.
 """
 from __future__ import annotations
 
+import copy
 import importlib
 import importlib.util
 import os
@@ -65,6 +66,13 @@ class RayCaster:
     def threads(self) -> int:
         """The threads its queries run on."""
         return self._threads
+
+    def with_own_count(self) -> "RayCaster":
+        """The same scene and threads, counting its rays apart: for work beside another's on one scene (lightmap
+        texels planned during the solve) whose rays the other's count must not include."""
+        other = copy.copy(self)
+        other._counting, other.rays_cast = threading.Lock(), 0
+        return other
 
     def __getstate__(self) -> dict:
         return {"triangles": self._triangles, "rays_cast": self.rays_cast}

@@ -6,20 +6,23 @@
 """
 from __future__ import annotations
 
+import threading
 import time
 import tomllib
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..core import BakeSettings, SceneError, bake
-from ..core.bake import bake_light_groups
+from ..core.bake import bake_light_groups, ray_caster, ray_offset_m
 from ..core.relight import basis, mix, weights
 from ..core.scene import sources
 from ..core.atlas import AtlasSize, uv_area
 from ..core.geometry import triangle_areas
-from ..core.lightmap import Lightmap, LightmapSettings, bake_lightmap
+from ..core.lightmap import Lightmap, LightmapSettings, light_texels, sample_texels
+from ..core.progress import Timer
 from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory
 from ..core.raycast import backend_name
 from ..core.staged_files import StagedFiles
@@ -108,7 +111,7 @@ def _check_texel_density(job: Job, size: AtlasSize, limit_gb: float) -> None:
     receivers = job.export.scene.triangles[~job.export.scene.casts_only]
     covered = int(min(triangle_areas(receivers).sum() * size.texels_per_metre ** 2, 2 ** 60))
     fit_to_memory(receivers, job.settings.element_size_m, limit_gb, min(covered, size.max_size ** 2), 2 * covered,
-                  job.settings.threads)
+                  job.settings.threads, covered)
 
 
 def _fit_to_memory(job: Job, limit_gb: float) -> None:
@@ -116,16 +119,16 @@ def _fit_to_memory(job: Job, limit_gb: float) -> None:
     warning), or refuse the bake (core.memory.MemoryLimitError) if nothing does. A bake split into parts (light
     groups, or sources for a relighting cache) holds every part's texels and pages."""
     scene, plan = job.export.scene, job.lightmap_plan
-    covered, image = 0, 0
+    covered, image, planned = 0, 0, 0
     parts = len(basis(scene)[1]) if job.user.relight_cache else max(1, len(job.light_groups))
     if plan is not None:
         width, height = plan.layout.width, plan.layout.height
-        covered = parts * max((int(uv_area(corner_uv) * width * height) for _, corner_uv in plan.page_triangles),
-                              default=0)
+        page_texels = [int(uv_area(corner_uv) * width * height) for _, corner_uv in plan.page_triangles]
+        covered, planned = parts * max(page_texels, default=0), sum(page_texels)
         image = parts * width * height * len(plan.page_triangles)
     asked = job.settings.element_size_m
     size, estimate = fit_to_memory(scene.triangles[~scene.casts_only], asked, limit_gb, covered, image,
-                                   job.settings.threads)
+                                   job.settings.threads, planned)
     job.memory = {"limit_gb": limit_gb, "estimated_gb": round(estimate.peak_bytes / GIB, 2),
                   "steps_gb": {name: round(value / GIB, 2) for name, value in estimate.steps.items()}}
     if size != asked:
@@ -154,23 +157,21 @@ def _solve(job: Job, progress, cancelled) -> None:
     # With a relighting cache, a part per source of light (core.relight.basis), every lamp on: the links are
     # refined for each source's light, the lamps that are off now included.
     split, job.sources = basis(scene) if job.user.relight_cache else (None, [])
-    job.solution = solution = bake(split or scene, job.settings, progress, cancelled)
+    caster = ray_caster(scene, job.settings, progress)
+    with ThreadPoolExecutor(1) as planner:  # the lightmap's texels are planned while the scene is solved
+        stop = threading.Event()
+        planned = planner.submit(_plan_pages, job, caster.with_own_count(), stop)
+        try:
+            job.solution = solution = bake(split or scene, job.settings, progress, cancelled, caster)
+            _bake_light_groups(job, split, progress, cancelled)
+        except BaseException:
+            stop.set()  # pages not started yet are left unplanned when the solve fails or is cancelled
+            raise
+        pages = planned.result()
     job.stats = {"timings": solution.seconds, "elements": solution.element_count, "solve": solution.counts,
                  "residual": solution.residual, "rays": solution.rays_cast, "warnings": list(solution.warnings)}
-    if split is not None:
-        job.basis = bake_light_groups(solution, job.settings, progress, cancelled, split)
-        job.weights = weights(job.sources, sources(scene))
-        job.members = {group: list(dict.fromkeys(s.key for s in job.sources if s.light_group == group))
-                       for group in job.light_groups}
-    elif job.light_groups:
-        job.basis = bake_light_groups(solution, job.settings, progress, cancelled)
-        job.weights = {key: np.ones(3) for key in job.basis}
-        job.members = {group: [group] for group in job.light_groups}
-    plan = job.lightmap_plan
-    if plan is not None:
-        job.lightmaps = [bake_lightmap(solution, scene_triangle, corner_uv, plan.layout.width, plan.layout.height,
-                                       job.lightmap_settings, progress, cancelled, job.basis or None)
-                         for scene_triangle, corner_uv in plan.page_triangles]
+    job.lightmaps = [light_texels(solution, page, progress, cancelled, job.basis or None, seconds)
+                     for page, seconds in pages]
     if job.user.vertex_colors:
         started = time.perf_counter()
         light = objects_loop_light(colour_holders(job.export.objects, job.user.own_mesh_copies), solution,
@@ -179,6 +180,38 @@ def _solve(job: Job, progress, cancelled) -> None:
                                    progress, cancelled)
         job.corner_basis = {name: dict(zip(job.basis or [""], parts)) for name, parts in light.items()}
         job.stats["timings"] = {**job.stats["timings"], "vertex colours": time.perf_counter() - started}
+
+
+def _bake_light_groups(job: Job, split, progress, cancelled) -> None:
+    """The solve of each light group (or, for a relighting cache, of each source in ``split``, the basis scene)."""
+    solution = job.solution
+    if split is not None:
+        job.basis = bake_light_groups(solution, job.settings, progress, cancelled, split)
+        job.weights = weights(job.sources, sources(job.export.scene))
+        job.members = {group: list(dict.fromkeys(s.key for s in job.sources if s.light_group == group))
+                       for group in job.light_groups}
+    elif job.light_groups:
+        job.basis = bake_light_groups(solution, job.settings, progress, cancelled)
+        job.weights = {key: np.ones(3) for key in job.basis}
+        job.members = {group: [group] for group in job.light_groups}
+
+
+def _plan_pages(job: Job, caster, stop: threading.Event) -> list:
+    """(core.lightmap.TexelPlan, its seconds) of each page of the job's lightmap, from the scene alone (the
+    indirect method is settled once the solution is there), until ``stop`` is set."""
+    plan, pages = job.lightmap_plan, []
+    if plan is None:
+        return pages
+    scene = job.export.scene
+    for scene_triangle, corner_uv in plan.page_triangles:
+        if stop.is_set():
+            break
+        timer = Timer()
+        page = sample_texels(scene, caster, ray_offset_m(scene), scene_triangle, corner_uv, plan.layout.width,
+                             plan.layout.height, job.lightmap_settings)
+        timer.lap("texels")
+        pages.append((page, timer.laps))
+    return pages
 
 
 def write_outputs(job: Job) -> dict:

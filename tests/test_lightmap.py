@@ -11,8 +11,9 @@ from core import BakeSettings, Material, Scene, SceneError, SettingsError, SunLi
 from core.atlas import (AtlasSize, atlas_size, layout_atlas, modifier_uv_problem, pack_blocks, pages_without_overlap,
                         uv_area)
 import core.lightmap
+from core.bake import ray_offset_m
 from core.lightmap import (LightmapSettings, TexelLight, bake_lightmap, dilate, finish_lightmap, light_chunk,
-                           plan_texels)
+                           light_texels, plan_texels, sample_texels)
 from core.errors import BakeCancelled
 from core.geometry import triangle_unit_normals
 from core.gather import mean_free_path_m
@@ -272,6 +273,29 @@ def test_same_seed_same_lightmap():
     first = lightmap_of(scene, [floor, block], LightmapSettings(gather_samples_per_edge=3))[0].light
     second = lightmap_of(scene, [floor, block], LightmapSettings(gather_samples_per_edge=3))[0].light
     assert np.array_equal(first, second)
+
+
+def test_texels_planned_during_the_solve_make_the_same_page():
+    """The texels planned from the scene alone, on the solve's ray-casting scene while it solves (as the add-on
+    does), then lit: the same page, bit for bit, as planning them after the solve, with the automatic indirect
+    method settled from the solution; and the solve's ray count leaves out the planning's rays."""
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    block = np.concatenate(box_faces((-0.3, -0.3, 0), (0.3, 0.3, 0.6), inward=False))
+    triangles = np.concatenate([floor, block])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.3, 0.2, -1.0), strength_w_m2=3.0, angle_rad=0.1)])
+    settings = BakeSettings(patch_size_m=1.0, element_size_m=0.5, threads=2)
+    automatic = LightmapSettings(indirect="auto")
+    whole, layout, corner_uv = lightmap_of(scene, [floor, block], automatic, bake_settings=settings)
+    alone = bake(scene, settings).rays_cast
+    caster = RayCaster(triangles, threads=2)
+    planning = caster.with_own_count()
+    plan = sample_texels(scene, planning, ray_offset_m(scene), np.arange(len(triangles)), corner_uv, layout.width,
+                         layout.height, automatic)
+    solution = bake(scene, settings, caster=caster)
+    assert plan.settings.indirect == "auto" and planning.rays_cast > 0 and solution.rays_cast == alone
+    page = light_texels(solution, plan)
+    assert page.indirect == whole.indirect and np.array_equal(page.light, whole.light)
 
 
 def test_chunks_lit_in_any_order_from_a_saved_solution_make_the_same_page(monkeypatch, tmp_path):

@@ -44,5 +44,13 @@ def test_lightmap_pages_count_towards_the_estimate():
     assert with_pages.peak_bytes > without.peak_bytes + 3 * 4096 ** 2 * 12  # at least the float32 RGB images
 
 
+def test_texels_planned_alongside_the_solve_count_towards_the_estimate():
+    """Each planned texel keeps at least its 9 footprint points and their barycentrics (2 x 9 x 3 float64) through
+    the solve."""
+    texels = 1_000_000
+    without = estimate_bake(PLANE, 0.5).peak_bytes
+    assert estimate_bake(PLANE, 0.5, planned_texels=texels).peak_bytes >= without + 2 * 9 * 3 * 8 * texels
+
+
 def test_the_machine_memory_is_known():
     assert physical_memory_bytes() > 2 ** 30

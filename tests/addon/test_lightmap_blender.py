@@ -195,6 +195,26 @@ def test_unwritable_lightmap_folder_fails_before_changing_the_file(empty_scene, 
     assert (scene_state(), sorted(image.name for image in bpy.data.images)) == before
 
 
+def test_a_lightmap_bake_cancelled_in_the_solve_changes_nothing(empty_scene, extension):
+    """Esc while the scene is solved, the lightmap's texels being planned meanwhile: the bake stops, the planning
+    thread with it, and the meshes and images are as they were."""
+    import threading
+    from test_bake import scene_state
+    grid_plane("Floor", 2.0, 8)
+    add_light("POINT", (0, 0, 1.5), 100.0)
+    job = extension.radiosity_addon.job
+    from radiosity_baker.core import BakeCancelled
+    from radiosity_baker.radiosity_addon.settings import UserSettings
+    threads = threading.active_count()
+    work = job.prepare(bpy.context, UserSettings(quality="DRAFT", target="LIGHTMAP", lightmap_resolution=64), "")
+    before = scene_state(), sorted(image.name for image in bpy.data.images)
+    calls = []
+    with pytest.raises(BakeCancelled):
+        job.solve(work, lambda fraction, message: None, lambda: calls.append(1) or len(calls) > 2)
+    assert (scene_state(), sorted(image.name for image in bpy.data.images)) == before
+    assert threading.active_count() == threads and not work.lightmaps
+
+
 def test_a_full_disk_in_the_panels_bake_keeps_the_earlier_lightmap(empty_scene, extension, tmp_path, monkeypatch):
     """The panel's bake writes its EXR beside the .blend the way the command line does: when the disk fills
     while the second bake writes, the first bake's file keeps its bytes and no temporary is left."""
