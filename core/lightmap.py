@@ -18,18 +18,20 @@ from .gather import final_gather_parts, gather_pays
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import triangle_areas
-from .geometry import inset
+from .geometry import inset, lengths
 from .surface_probes import face_to_face_contact, inside_closed_geometry, push_out_of_geometry
-from .texels import Texels, rasterize, sample_points, subtexel_barycentrics
+from .texels import footprint_barycentrics, footprint_steps, rasterize, sample_points, subcell_order
 
 INDIRECT_METHODS = ("auto", "gather", "interpolate")
 # Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
 # texel at High), and lets progress and Esc through between steps.
 TEXELS_PER_CHUNK = 8192
-# Shadow edges: a texel whose sub-points' direct light spreads over more than this share of the brightest is lit
-# again with at least this many shadow rays per edge at each point (docs/benchmarks.md, "Penumbra texels").
+# Shadow edges: a texel whose sub-points' direct light spreads over more than this share of the brightest (or
+# differs by that much from a neighbour's) is lit again from this many points per edge in each sub-point's cell
+# (docs/benchmarks.md, "Penumbra texels" and "Shadow edges between the sub-points").
 PENUMBRA_SPREAD = 0.1
 PENUMBRA_SAMPLES_PER_EDGE = 2
+SAME_SURFACE_COSINE = 0.999  # neighbouring texels whose faces' normals agree this well lie on one surface
 
 
 @dataclass(frozen=True)
@@ -105,7 +107,8 @@ class TexelPlan:
     pixel: (m,) flat index of each texel in the (height, width) page; tri, barycentric: its scene triangle and
     the barycentrics of its point; points, normals: (m, 3) the point (pushed out of closed geometry where it was
     inside) and its face's unit normal; texel_m: (m,) a texel's edge length on its triangle; sub_points,
-    sub_bary: (m, q, 3) points over its footprint; moved, contact: (m,) pushed out / resting on another face;
+    sub_bary: (m, q, 3) points over its footprint; steps: (m, 2, 3) its ``core.texels.footprint_steps``, for
+    finer points over the footprint; moved, contact: (m,) pushed out / resting on another face;
     settings: with the indirect method chosen; texels_per_chunk: the chunks' size (the rays of a chunk are seeded
     from its first texel)."""
 
@@ -119,6 +122,7 @@ class TexelPlan:
     texel_m: np.ndarray
     sub_points: np.ndarray
     sub_bary: np.ndarray
+    steps: np.ndarray
     moved: np.ndarray
     contact: np.ndarray
     settings: LightmapSettings
@@ -201,10 +205,11 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     contact = face_to_face_contact(scene.triangles, tri, points, 4 * offset_m)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
     points, moved = push_out_of_geometry(caster, scene.triangles, points, normals, reach, offset_m)
-    sub_points, sub_bary = _subtexel_points(scene.triangles[tri], texels, corner_uv,
-                                            settings.subtexel_samples_per_edge, points, moved, 4 * offset_m)
+    steps = footprint_steps(texels, corner_uv)
+    sub_points, sub_bary = _footprint_points(scene.triangles[tri], texels.barycentric, steps,
+                                             settings.subtexel_samples_per_edge, points, moved, 4 * offset_m)
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
-                     sub_bary, moved, contact, settings, TEXELS_PER_CHUNK)
+                     sub_bary, steps, moved, contact, settings, TEXELS_PER_CHUNK)
 
 
 def with_indirect_method(plan: TexelPlan, solution) -> TexelPlan:
@@ -231,9 +236,8 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
     gather = settings.indirect == "gather"  # its rays bring the world's light
     lightings = list(groups.values()) if groups else [solution]
-    direct = np.stack([_footprint_mean(scene, _direct_light(
-        lit, sub_points, shading, tri, barycentric, settings.subtexel_samples_per_edge, first_texel,
-        plan.texel_count, world=not gather), tri, sub_bary) for lit in lightings])
+    direct = np.stack([_footprint_mean(scene, _direct_light(lit, plan, chunk, shading, world=not gather), tri,
+                                       sub_bary) for lit in lightings])
     timer.lap("direct")
     if gather:
         indirect, variance = final_gather_parts(lightings, solution.caster, sub_points,
@@ -302,39 +306,79 @@ def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndar
     return np.where(total > 0, weighted, light.mean(axis=1))
 
 
-def _subtexel_points(triangles_m, texels: Texels, corner_uv, samples_per_edge, points, moved,
-                     inset_m) -> tuple[np.ndarray, np.ndarray]:
-    """(m, k^2, 3) points over each texel's footprint (inset from the triangle's edges); texels pushed out of
-    geometry keep their one moved point."""
-    bary = subtexel_barycentrics(texels, corner_uv, samples_per_edge)
+def _footprint_points(triangles_m, barycentric, steps, samples_per_edge, points, moved,
+                      inset_m) -> tuple[np.ndarray, np.ndarray]:
+    """(m, k^2, 3) points over each texel's footprint (core.texels.footprint_barycentrics, inset from the
+    triangle's edges) and their barycentrics; texels pushed out of geometry or only partly covered keep their
+    one point."""
+    bary = footprint_barycentrics(barycentric, steps, samples_per_edge)
     sub_points = inset(np.einsum("mqc,mck->mqk", bary, triangles_m), triangles_m.mean(axis=1)[:, None, :], inset_m)
-    keep = moved | ~texels.centre_inside
+    keep = moved | ~steps.any(axis=(1, 2))
     sub_points[keep] = points[keep, None, :]
     return sub_points, bary
 
 
-def _direct_light(solution, sub_points, normals, tri, barycentric, samples_per_edge, first_texel, texel_count,
-                  world: bool) -> np.ndarray:
-    """(m, q, 3) direct light at the (m, q, 3) sub-texel points with their unit normals, with 1/k the shadow rays
-    per edge at each (rounded up); the world's only if ``world``. Texels on a shadow's edge, where the sub-points'
-    light spreads over more than PENUMBRA_SPREAD of the brightest, are lit again with at least
-    PENUMBRA_SAMPLES_PER_EDGE^2 rays per point, new rays in place of the first (an estimate independent of the
-    test that chose the texel, so the choice adds no bias); a penumbra is where a few rays per point are noisiest."""
-    q = sub_points.shape[1]
-    light_samples = -(-solution.direct.samples_per_edge // samples_per_edge)
+def _direct_light(solution, plan: TexelPlan, chunk: slice, shading: np.ndarray, world: bool) -> np.ndarray:
+    """(m, q, 3) direct light at the q footprint points of the chunk's texels with their (m, q, 3) unit shading
+    normals, with 1/k the shadow rays per edge at each (rounded up); the world's only if ``world``. Texels on a
+    shadow's edge, where the points' light spreads over more than PENUMBRA_SPREAD of the brightest, are lit again
+    from p x p points spread over each point's cell of the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in
+    place of the first (an estimate independent of the test that chose the texel, so the choice adds no bias): a
+    penumbra is where a few rays per point are noisiest, and where a sharp shadow's edge crosses the texel, a few
+    fixed points measure its covered share only to 1/k."""
+    k = plan.settings.subtexel_samples_per_edge
+    sub_points, tri, barycentric = plan.sub_points[chunk], plan.tri[chunk], plan.barycentric[chunk]
+    light_samples = -(-solution.direct.samples_per_edge // k)
 
-    def lit(texels, samples, seed_offset):
-        return solution.direct_light(sub_points[texels].reshape(-1, 3), normals[texels].reshape(-1, 3),
-                                     np.repeat(tri[texels], q), np.repeat(barycentric[texels], q, axis=0), samples,
-                                     seed_offset=seed_offset, world=world).reshape(-1, q, 3)
+    def lit(points, normals, texels, seed_offset):
+        per_texel = points.shape[1]
+        return solution.direct_light(points.reshape(-1, 3), normals.reshape(-1, 3),
+                                     np.repeat(tri[texels], per_texel),
+                                     np.repeat(barycentric[texels], per_texel, axis=0), light_samples,
+                                     seed_offset=seed_offset, world=world).reshape(len(points), per_texel, 3)
 
-    light = lit(slice(None), light_samples, q * first_texel)
+    light = lit(sub_points, shading, slice(None), k * k * chunk.start)
     if light_samples < PENUMBRA_SAMPLES_PER_EDGE:
-        brightness = np.nan_to_num(light).sum(axis=2)
-        edge = np.flatnonzero(np.ptp(brightness, axis=1) > PENUMBRA_SPREAD * brightness.max(axis=1))
-        # Seeds past every texel's first pass (q * texel_count), so no ray repeats another's.
-        light[edge] = lit(edge, PENUMBRA_SAMPLES_PER_EDGE, q * (texel_count + first_texel))
+        edge = _shadow_edge_texels(plan, chunk, np.nan_to_num(light).sum(axis=2))
+        light[edge] = _finer_footprint_light(solution, plan, chunk, edge, shading, lit)
     return light
+
+
+def _shadow_edge_texels(plan: TexelPlan, chunk: slice, brightness: np.ndarray) -> np.ndarray:
+    """Indices into the chunk of its texels on a shadow's edge, from the (c, q) brightness of their footprint
+    points: the points' brightness spreads over more than PENUMBRA_SPREAD of the brightest, or the texel's mean
+    differs by that much from a neighbouring texel's of the chunk on the same surface (an edge that passes
+    between a texel's outer points and its border leaves its points agreeing)."""
+    brightest, mean = brightness.max(axis=1), brightness.mean(axis=1)
+    edge = np.ptp(brightness, axis=1) > PENUMBRA_SPREAD * brightest
+    pixel, points, normals = plan.pixel[chunk], plan.points[chunk], plan.normals[chunk]
+    for step in (1, plan.width):  # the neighbour to the right and the one above
+        found = np.minimum(np.searchsorted(pixel, pixel + step), len(pixel) - 1)
+        neighbour = (pixel[found] == pixel + step) & ((step != 1) | (pixel % plan.width != plan.width - 1))
+        same_surface = neighbour & (np.einsum("mk,mk->m", normals, normals[found]) > SAME_SURFACE_COSINE) & (
+            lengths(points - points[found]) < 2 * plan.texel_m[chunk])
+        differ = same_surface & (np.abs(mean - mean[found]) > PENUMBRA_SPREAD * np.maximum(brightest,
+                                                                                         brightest[found]))
+        edge[differ] = True
+        edge[found[differ]] = True
+    return np.flatnonzero(edge)
+
+
+def _finer_footprint_light(solution, plan: TexelPlan, chunk: slice, edge: np.ndarray, shading: np.ndarray,
+                           lit) -> np.ndarray:
+    """(e, q, 3) the direct light of the chunk's ``edge`` texels, each of their q footprint points the mean of
+    p x p points over its cell, lit by ``lit``; seeded past every texel's first pass, so no ray repeats
+    another's."""
+    k, split = plan.settings.subtexel_samples_per_edge, PENUMBRA_SAMPLES_PER_EDGE
+    texels = np.arange(chunk.start, chunk.stop)[edge]
+    triangles = solution.scene.triangles[plan.tri[texels]]
+    order = subcell_order(k, split).ravel()
+    points, _ = _footprint_points(triangles, plan.barycentric[texels], plan.steps[texels], k * split,
+                                  plan.points[texels], plan.moved[texels], 4 * solution.offset_m)
+    normals = np.repeat(shading[edge], split * split, axis=1)
+    first_seed = k * k * plan.texel_count + (k * split) ** 2 * chunk.start
+    light = lit(points[:, order], normals, edge, first_seed)
+    return light.reshape(len(edge), k * k, split * split, 3).mean(axis=2)
 
 
 def texel_size_m(triangles_m: np.ndarray, corner_uv: np.ndarray, width: int, height: int) -> np.ndarray:

@@ -105,22 +105,45 @@ def sample_points(triangles_m: np.ndarray, texels: Texels, inset_m: float) -> tu
     return inset(points, corners.mean(axis=1), inset_m), triangle_unit_normals(corners)
 
 
-def subtexel_barycentrics(texels: Texels, corner_uv: np.ndarray, samples_per_edge: int) -> np.ndarray:
-    """(m, k^2, 3) barycentrics of k x k stratified points over each texel's footprint, folded back into the
-    triangle where they fall outside it (mirrored at the edges, as Cycles' bake jitters its samples), so a texel
-    holds its footprint's mean rather than one point's value. Texels only partly covered keep their one point."""
-    k = samples_per_edge
-    cells = (np.stack(np.meshgrid(np.arange(k), np.arange(k), indexing="ij"), -1).reshape(-1, 2) + 0.5) / k - 0.5
+def footprint_steps(texels: Texels, corner_uv: np.ndarray) -> np.ndarray:
+    """(m, 2, 3) change of each texel's barycentrics per texel step along the image's x and y (the inverse of its
+    triangle's UV map); zero where the texel keeps its one point (its centre outside the triangle) or the UV
+    triangle is degenerate."""
     uv = corner_uv[texels.triangle] * [texels.width, texels.height]
     e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
     det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    safe = np.where(np.abs(det) > 1e-12, det, np.inf)[:, None]
-    du = (cells[None, :, 0] * e2[:, None, 1] - cells[None, :, 1] * e2[:, None, 0]) / safe
-    dv = (e1[:, None, 0] * cells[None, :, 1] - e1[:, None, 1] * cells[None, :, 0]) / safe
-    bary = texels.barycentric[:, None, :] + np.stack([-du - dv, du, dv], axis=-1)
-    bary = _fold_into_triangle(bary)
-    bary[~texels.centre_inside] = texels.barycentric[~texels.centre_inside, None, :]
-    return bary
+    safe = np.where(np.abs(det) > 1e-12, det, np.inf)
+    du = np.stack([e2[:, 1], -e2[:, 0]], axis=1) / safe[:, None]  # (m, 2): d(second barycentric) per x, y step
+    dv = np.stack([-e1[:, 1], e1[:, 0]], axis=1) / safe[:, None]
+    steps = np.stack([-du - dv, du, dv], axis=-1)
+    steps[~texels.centre_inside] = 0.0
+    return steps
+
+
+def footprint_barycentrics(barycentric: np.ndarray, steps: np.ndarray, samples_per_edge: int) -> np.ndarray:
+    """(m, k^2, 3) barycentrics of k x k stratified points over each texel's footprint (its (m, 3) centre
+    barycentrics and (m, 2, 3) ``footprint_steps``), folded back into the triangle where they fall outside it
+    (mirrored at the edges, as Cycles' bake jitters its samples), so a texel holds its footprint's mean rather
+    than one point's value. Texels only partly covered (steps zero) keep their one point. Point i * k + j lies in
+    column i, row j of the texel's k x k cells (``subcell_order`` splits them further)."""
+    cells = _cell_offsets(samples_per_edge)
+    return _fold_into_triangle(barycentric[:, None, :] + np.einsum("qa,mak->mqk", cells, steps))
+
+
+def subcell_order(samples_per_edge: int, split: int) -> np.ndarray:
+    """(k^2, s^2) the points of a (k s) x (k s) ``footprint_barycentrics`` grid that fall in each cell of the
+    k x k grid, so that the finer grid's values average back onto the coarser one's points."""
+    column, row = np.divmod(np.arange((samples_per_edge * split) ** 2), samples_per_edge * split)
+    cell = (column // split) * samples_per_edge + row // split
+    return np.argsort(cell, kind="stable").reshape(samples_per_edge ** 2, split ** 2)
+
+
+def _cell_offsets(samples_per_edge: int) -> np.ndarray:
+    """(k^2, 2) centres of a k x k grid over the unit texel, as offsets (x, y) from its centre, column by
+    column."""
+    k = samples_per_edge
+    column, row = np.divmod(np.arange(k * k), k)
+    return (np.stack([column, row], axis=1) + 0.5) / k - 0.5
 
 
 def _fold_into_triangle(bary: np.ndarray) -> np.ndarray:
