@@ -236,8 +236,8 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
     gather = settings.indirect == "gather"  # its rays bring the world's light
     lightings = list(groups.values()) if groups else [solution]
-    direct = np.stack([_footprint_mean(scene, _direct_light(lit, plan, chunk, shading, world=not gather), tri,
-                                       sub_bary) for lit in lightings])
+    direct = np.stack([_footprint_mean(scene, light, tri, sub_bary)
+                       for light in _direct_light(lightings, plan, chunk, shading, world=not gather)])
     timer.lap("direct")
     if gather:
         indirect, variance = final_gather_parts(lightings, solution.caster, sub_points,
@@ -318,29 +318,32 @@ def _footprint_points(triangles_m, barycentric, steps, samples_per_edge, points,
     return sub_points, bary
 
 
-def _direct_light(solution, plan: TexelPlan, chunk: slice, shading: np.ndarray, world: bool) -> np.ndarray:
-    """(m, q, 3) direct light at the q footprint points of the chunk's texels with their (m, q, 3) unit shading
-    normals, with 1/k the shadow rays per edge at each (rounded up); the world's only if ``world``. Texels on a
-    shadow's edge, where the points' light spreads over more than PENUMBRA_SPREAD of the brightest, are lit again
-    from p x p points spread over each point's cell of the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in
-    place of the first (an estimate independent of the test that chose the texel, so the choice adds no bias): a
-    penumbra is where a few rays per point are noisiest, and where a sharp shadow's edge crosses the texel, a few
-    fixed points measure its covered share only to 1/k."""
+def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.ndarray, world: bool) -> np.ndarray:
+    """(g, m, q, 3) direct light of each lighting (the solution, or one per light group) at the q footprint points
+    of the chunk's texels with their (m, q, 3) unit shading normals, with 1/k the shadow rays per edge at each
+    (rounded up); the world's only if ``world``. Texels on a shadow's edge, where the points' light spreads over
+    more than PENUMBRA_SPREAD of the brightest, are lit again from p x p points spread over each point's cell of
+    the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in place of the first (an estimate independent of the
+    test that chose the texel, so the choice adds no bias): a penumbra is where a few rays per point are noisiest,
+    and where a sharp shadow's edge crosses the texel, a few fixed points measure its covered share only to 1/k.
+    The edges are found on the lightings' sum, so that light groups sum to the ordinary bake."""
     k = plan.settings.subtexel_samples_per_edge
-    sub_points, tri, barycentric = plan.sub_points[chunk], plan.tri[chunk], plan.barycentric[chunk]
-    light_samples = -(-solution.direct.samples_per_edge // k)
+    tri, barycentric = plan.tri[chunk], plan.barycentric[chunk]
+    light_samples = -(-lightings[0].direct.samples_per_edge // k)
 
     def lit(points, normals, texels, seed_offset):
         per_texel = points.shape[1]
-        return solution.direct_light(points.reshape(-1, 3), normals.reshape(-1, 3),
-                                     np.repeat(tri[texels], per_texel),
-                                     np.repeat(barycentric[texels], per_texel, axis=0), light_samples,
-                                     seed_offset=seed_offset, world=world).reshape(len(points), per_texel, 3)
+        return np.stack([solution.direct_light(
+            points.reshape(-1, 3), normals.reshape(-1, 3), np.repeat(tri[texels], per_texel),
+            np.repeat(barycentric[texels], per_texel, axis=0), light_samples, seed_offset=seed_offset,
+            world=world).reshape(len(points), per_texel, 3) for solution in lightings])
 
-    light = lit(sub_points, shading, slice(None), k * k * chunk.start)
+    light = lit(plan.sub_points[chunk], shading, slice(None), k * k * chunk.start)
     if light_samples < PENUMBRA_SAMPLES_PER_EDGE:
-        edge = _shadow_edge_texels(plan, chunk, np.nan_to_num(light).sum(axis=2))
-        light[edge] = _finer_footprint_light(solution, plan, chunk, edge, shading, lit)
+        edge = _shadow_edge_texels(plan, chunk, np.nan_to_num(light).sum(axis=(0, 3)))
+        points, normals = _finer_footprint_points(lightings[0], plan, chunk, edge, shading)
+        finer = lit(points, normals, edge, k * k * plan.texel_count + len(points[0]) * chunk.start)
+        light[:, edge] = finer.reshape(len(lightings), len(edge), k * k, -1, 3).mean(axis=3)
     return light
 
 
@@ -364,21 +367,16 @@ def _shadow_edge_texels(plan: TexelPlan, chunk: slice, brightness: np.ndarray) -
     return np.flatnonzero(edge)
 
 
-def _finer_footprint_light(solution, plan: TexelPlan, chunk: slice, edge: np.ndarray, shading: np.ndarray,
-                           lit) -> np.ndarray:
-    """(e, q, 3) the direct light of the chunk's ``edge`` texels, each of their q footprint points the mean of
-    p x p points over its cell, lit by ``lit``; seeded past every texel's first pass, so no ray repeats
-    another's."""
+def _finer_footprint_points(solution, plan: TexelPlan, chunk: slice, edge: np.ndarray,
+                            shading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(e, q p^2, 3) points over the footprints of the chunk's ``edge`` texels, p x p over each cell of their
+    k x k grid, cell by cell (the p^2 of the first cell first), and their unit shading normals (each cell's)."""
     k, split = plan.settings.subtexel_samples_per_edge, PENUMBRA_SAMPLES_PER_EDGE
     texels = np.arange(chunk.start, chunk.stop)[edge]
-    triangles = solution.scene.triangles[plan.tri[texels]]
-    order = subcell_order(k, split).ravel()
-    points, _ = _footprint_points(triangles, plan.barycentric[texels], plan.steps[texels], k * split,
-                                  plan.points[texels], plan.moved[texels], 4 * solution.offset_m)
-    normals = np.repeat(shading[edge], split * split, axis=1)
-    first_seed = k * k * plan.texel_count + (k * split) ** 2 * chunk.start
-    light = lit(points[:, order], normals, edge, first_seed)
-    return light.reshape(len(edge), k * k, split * split, 3).mean(axis=2)
+    points, _ = _footprint_points(solution.scene.triangles[plan.tri[texels]], plan.barycentric[texels],
+                                  plan.steps[texels], k * split, plan.points[texels], plan.moved[texels],
+                                  4 * solution.offset_m)
+    return points[:, subcell_order(k, split).ravel()], np.repeat(shading[edge], split * split, axis=1)
 
 
 def texel_size_m(triangles_m: np.ndarray, corner_uv: np.ndarray, width: int, height: int) -> np.ndarray:
