@@ -24,6 +24,7 @@ from .mesh import ElementMesh, Elements
 from .parallel import ordered_map
 from .progress import never_cancelled
 from .raycast import RayCaster
+from .scene import MAX_REFLECTANCE
 from .geometry import triangle_areas, triangle_unit_normals
 
 
@@ -132,6 +133,7 @@ class FormFactorCache:
         for block, rows in row_blocks(self.method, patches, elements, self.threads):
             if cancelled():
                 raise BakeCancelled("Bake cancelled while computing form factors.")
+            rows = conserving(rows, block, elements, patch_table)
             self.coupling[:, block] = patch_mean(rows, elements, patch_table)
             self.known[block] = True
             if self.rows is not None:
@@ -190,6 +192,19 @@ class FormFactorCache:
 
 def _subset(elements: Elements, positions: np.ndarray) -> Elements:
     return Elements(**{name: value[positions] for name, value in vars(elements).items()})
+
+
+def conserving(rows: np.ndarray, block: np.ndarray, elements: Elements, patches: Patches) -> np.ndarray:
+    """(n, b) rows F(e -> j) of the ``block`` patches, each patch's column scaled down where the elements would
+    reflect back more than MAX_REFLECTANCE of the light it shoots. By reciprocity they receive
+    sum_e F(e -> j) A_e / A_j of it, at most 1 (the form factors leaving a patch sum to 1 in a closed scene,
+    radiosity paper section 3), and reflect at most MAX_REFLECTANCE of that. A factor estimated at an element's
+    centroid overshoots where surfaces touch or cut through each other (2.6 between intersecting triangles), and
+    a patch that gets back more than it shoots makes the solvers diverge; the few percent over 1 that centroid
+    estimates reach in a closed room (1.024 in the furnace box) come back at the reflectance's share and stay."""
+    reflected = (elements.exposed_m2[:, None] * elements.reflectance).T @ rows  # (3, b) W per W/m^2 shot
+    returned = reflected.max(axis=0) / np.maximum(exposed_area(elements, patches)[block], 1e-300)
+    return rows / np.maximum(returned / MAX_REFLECTANCE, 1.0)[None, :]
 
 
 def patch_mean(values: np.ndarray, elements: Elements, patches: Patches) -> np.ndarray:

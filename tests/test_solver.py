@@ -33,6 +33,25 @@ def test_furnace_box_reaches_emission_over_one_minus_reflectance(solver, reflect
     assert solution.element_radiosity() == pytest.approx(1.0 / (1.0 - reflectance), rel=0.005)
 
 
+@pytest.mark.parametrize("solver", ["direct", "progressive"])
+def test_triangles_cutting_through_each_other_keep_the_solve_finite(solver):
+    """Three white triangles that cut through each other (their reflectance clamped to MAX_REFLECTANCE, 0.99),
+    lit by a blue sky of radiance 1 (found by tests/test_fuzz.py): the centroid form factors sent one patch's
+    light back 2.6 times over, and the progressive solve overflowed to NaN. Surfaces receive at most the sky's
+    pi L on both sides of their area, divided by 1 - rho (test_fuzz's energy bound); no light in red and green."""
+    corners = np.array([[[0, 0, 0], [0, 1, 0], [2, 0, -1]], [[0, 1, 0], [0, 0, 0], [1, -1, -1]],
+                        [[0, 1, 0], [0, -1, 0], [1, 0, -1]]], dtype=float)
+    scene = Scene(corners, [0, 0, 0], [Material("white", (1.0,) * 3)], world=World((0.0, 0.0, 1.0)))
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=1.0, solver=solver,
+                                        light_samples_per_edge=1))
+    elements = solution.elements
+    received = (elements.exposed_m2[..., None] * elements.irradiance).sum(axis=(0, 1))
+    bound = np.pi * 1.0 * 2 * elements.area_m2.sum() / (1 - 0.99)  # pi L on both sides of each element
+    light = solution.evaluate(np.arange(3), np.full((3, 3), 1 / 3))
+    assert np.isfinite(light).all() and (light >= 0).all() and (light[:, :2] == 0).all() and light[:, 2].max() > 0
+    assert 0 < received[2] <= bound and (received[:2] == 0).all()
+
+
 @pytest.mark.parametrize("solver", ["hierarchical", "progressive"])
 def test_furnace_with_a_closed_box_on_the_floor_stays_uniform(solver):
     """The furnace closed form B = E / (1 - rho) holds on every visible surface even with a closed box standing on
