@@ -493,6 +493,18 @@ def test_finer_footprint_points_average_to_the_points_they_split():
     assert np.ptp(fine, axis=2).max() > 0.01  # the finer points do spread over each cell
 
 
+def test_a_floor_in_full_sun_holds_its_irradiance_in_every_texel():
+    """A lone floor under a sun of 3 W/m^2 straight above, with no shadow anywhere: every texel holds E / pi
+    (no texel lit again: a chunk without shadow edges)."""
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    scene = Scene(floor, [0, 0], [Material("grey", (0.5,) * 3)],
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5, light_samples_per_edge=2))
+    result = bake_lightmap(solution, np.array([0, 1]), (floor[..., :2] + 1) / 2, 16, 16,
+                           LightmapSettings(indirect="interpolate"))
+    assert result.light[result.covered] == pytest.approx(3.0 / np.pi, rel=1e-6)
+
+
 def test_a_sharp_shadow_edge_darkens_each_texel_by_the_share_it_covers():
     """A floor 2 m across on 32 x 32 texels, under a sun straight above with no angle, and a shadow-only sheet
     2 m up covering x < 0.1 + 0.3 y: Cycles jitters a texel's samples over its whole footprint (a one-texel box),
