@@ -342,6 +342,7 @@ def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.nd
     if light_samples < PENUMBRA_SAMPLES_PER_EDGE:
         edge = _shadow_edge_texels(plan, chunk, np.nan_to_num(light).sum(axis=(0, 3)))
         points, normals = _finer_footprint_points(lightings[0], plan, chunk, edge, shading)
+        # Seeds past every texel's first pass (k^2 texel_count), so no ray repeats another's.
         finer = lit(points, normals, edge, k * k * plan.texel_count + points.shape[1] * chunk.start)
         cells = finer.reshape(len(lightings), len(edge), k * k, PENUMBRA_SAMPLES_PER_EDGE ** 2, 3)
         light[:, edge] = cells.mean(axis=3)
