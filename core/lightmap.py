@@ -17,8 +17,7 @@ from .errors import BakeCancelled, SettingsError
 from .gather import final_gather_parts, gather_pays
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
-from .geometry import triangle_areas
-from .geometry import inset, lengths
+from .geometry import inset, lengths, triangle_areas
 from .surface_probes import face_to_face_contact, inside_closed_geometry, push_out_of_geometry
 from .texels import footprint_barycentrics, footprint_steps, rasterize, sample_points, subcell_order
 
