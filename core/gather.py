@@ -30,6 +30,11 @@ FREE_PATH_RAYS = 1 << 14
 # irradiance interpolated between elements blurs what the elements are too coarse to resolve (an arcade's ceiling
 # 3 m above a floor, with 2.5 m elements). Where the threshold comes from: docs/benchmarks.md, "Presets".
 GATHER_BELOW_ELEMENTS = 3.0
+# A gather ray that lands within this many element sizes of its origin gathers the indirect light there again
+# (``final_gather``'s near_m), by NEAR_SAMPLES_PER_EDGE^2 rays: close by, the element's one value is not the light
+# of the spot the ray meets (measured: docs/benchmarks.md, "Vertex colours" and "Gathering again near by").
+NEAR_ELEMENTS = 2.0
+NEAR_SAMPLES_PER_EDGE = 1  # one ray per near hit: the least noise per second
 
 
 def mean_free_path_m(scene, caster: RayCaster, offset_m: float, seed: int) -> float:

@@ -14,7 +14,7 @@ import numpy as np
 
 from .denoise import denoise_gathered
 from .errors import BakeCancelled, SettingsError
-from .gather import final_gather_parts, gather_pays
+from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts, gather_pays
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import inset, lengths, triangle_areas
@@ -225,8 +225,9 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     """The direct and indirect light of the c texels of chunk ``index``: depends on the solution, the plan and the
     index only (the shadow and gather rays are seeded from the chunk's first texel, so no two chunks repeat each
     other's samples). Light arrives by the shading normal (smooth shading, as Cycles bakes); the faces' own normals
-    find buried points and the receivers to interpolate from. With ``groups`` (light group -> its Solution), the
-    light of each group, the gather's rays shared."""
+    find buried points and the receivers to interpolate from. A gather ray that lands within NEAR_ELEMENTS element
+    sizes gathers again there (core.gather). With ``groups`` (light group -> its Solution), the light of each
+    group, the gather's rays shared."""
     chunk, settings, timer = plan.chunk(index), plan.settings, timer or Timer()
     points, sub_points, sub_bary = plan.points[chunk], plan.sub_points[chunk], plan.sub_bary[chunk]
     normals, tri, barycentric, first_texel = plan.normals[chunk], plan.tri[chunk], plan.barycentric[chunk], chunk.start
@@ -242,7 +243,9 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
         indirect, variance = final_gather_parts(lightings, solution.caster, sub_points,
                                                 scene.shading_normals(tri, barycentric),
                                                 settings.gather_samples_per_edge, solution.offset_m,
-                                                settings.seed + first_texel, face_normals=normals)
+                                                settings.seed + first_texel, face_normals=normals,
+                                                near_m=NEAR_ELEMENTS * solution.element_size_m,
+                                                near_samples_per_edge=NEAR_SAMPLES_PER_EDGE)
     else:
         inside = _inside(solution, points, normals, sub_points)
         indirect = np.stack([_footprint_mean(scene, np.where(inside[..., None], 0.0, lit.indirect_light(

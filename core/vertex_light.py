@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SettingsError
-from .gather import final_gather_parts
+from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts
 from .geometry import lengths, tangent_frames, triangle_unit_normals
 from .parallel import MAX_STEPS_IN_FLIGHT, steps_in_flight
 from .ragged import row_groups
@@ -38,8 +38,6 @@ from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
 NORMAL_STEPS = 1e4  # normals are matched to 1e-4 per component when corners share a point
-NEAR_ELEMENTS = 2.0  # a corner's gather rays that land within this many element sizes gather again there
-NEAR_SAMPLES_PER_EDGE = 1  # rays per edge of that second gather: one ray per near hit is the least noise per second
 EXACT_LIGHTS_PER_HIT = 8  # the lamps brightest where a corner's gather ray lands that get a shadow ray each
 PROBE_SAMPLES_PER_EDGE = 4  # rays per edge that tell whether surfaces lie close to a corner (method "auto")
 GATHER_NEAR_SHARE = 0.3  # "auto" gathers where at least this share of the probe rays lands close by
