@@ -15,9 +15,10 @@ from core.bake import ray_offset_m
 from core.lightmap import (LightmapSettings, TexelLight, bake_lightmap, dilate, finish_lightmap, light_chunk,
                            light_texels, plan_texels, sample_texels)
 from core.errors import BakeCancelled
-from core.geometry import triangle_unit_normals
+from core.geometry import tangent_frames, triangle_unit_normals
 from core.gather import mean_free_path_m
 from core.raycast import RayCaster
+from core.sampling import cosine_hemisphere
 from core.solution_file import load_solution, save_solution
 from core.texels import footprint_barycentrics, footprint_steps, rasterize, subcell_order
 from shapes import box_faces, quad
@@ -570,3 +571,66 @@ def test_a_soft_shadow_edge_matches_the_disk_it_hides(monkeypatch, penumbra_samp
     else:
         assert error < tolerance
         assert abs(np.mean(light.direct[0, penumbra, 0] - expected[penumbra])) < 0.01 * 3.0 / np.pi
+
+
+def path_traced_indirect(scene, caster, points, normal, paths_per_point: int, bounces: int, seed: int,
+                         offset_m: float) -> np.ndarray:
+    """(m,) irradiance at points with one unit normal from light the scene's surfaces reflect, by path tracing
+    (an independent reference: no elements, no links): cosine-weighted directions, and at each surface a path
+    meets, its reflectance x the throughput x the sun's irradiance there (one shadow ray), both sides of every
+    surface reflecting. The scene's one light is a sun."""
+    sun = scene.lights[0]
+    to_sun = -np.asarray(sun.direction, dtype=np.float64) / np.linalg.norm(sun.direction)
+    rng = np.random.default_rng(seed)
+    count, normal = len(points) * paths_per_point, np.asarray(normal, dtype=np.float64)
+    origins = np.repeat(points, paths_per_point, axis=0) + offset_m * normal
+    normals = np.repeat(normal[None], count, axis=0)
+    throughput, total = np.ones(count), np.zeros(count)
+    for _ in range(bounces):
+        local = cosine_hemisphere(rng.random((count, 1, 2)))
+        directions = np.einsum("msi,mik->msk", local, tangent_frames(normals))[:, 0]
+        hit, barycentric = caster.first_hit(origins, directions)
+        throughput = np.where(hit >= 0, throughput, 0.0)
+        triangles = scene.triangles[np.maximum(hit, 0)]
+        points_hit = np.einsum("mc,mck->mk", barycentric, triangles)
+        normals = triangle_unit_normals(triangles)
+        normals *= np.where(np.einsum("mk,mk->m", normals, directions) < 0, 1.0, -1.0)[:, None]  # the side met
+        origins = points_hit + offset_m * normals
+        sunlit = ~caster.occluded(origins, np.repeat(to_sun[None], count, axis=0), np.full(count, np.inf))
+        throughput = throughput * scene.reflectance[scene.material_index[np.maximum(hit, 0)], 0]
+        total += throughput * sun.strength_w_m2 * np.maximum(normals @ to_sun, 0.0) * sunlit
+    return total.reshape(len(points), paths_per_point).mean(axis=1)
+
+
+@pytest.mark.parametrize("near_elements", [core.lightmap.NEAR_ELEMENTS, 0.0], ids=["gathered again", "element's"])
+def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(monkeypatch, near_elements):
+    """A 12 x 4 m arcade floor (reflectance 0.01) under a ceiling 3 m up (0.7) and a black back wall, open on one
+    side to a 12 x 8 m ground (0.8) under a sun of 3 W/m^2 straight above: the floor's light all comes off the
+    ceiling, which the sunlit ground lights from beside the arcade, strongest by the opening. With 4 m elements
+    the ceiling is one element deep, and its one value is not the light of the spots the floor's gather rays meet:
+    those within 2 element sizes are gathered again there. The floor's middle 168 texels, against path tracing
+    from their points (12 bounces, 1,200 paths each): within 3% (measured -0.4%; -1.6% to +0.3% over four other
+    seeds of the bake, gather and paths); with the element's value at every hit, 6.9% too dark (6.6-7.3%)."""
+    monkeypatch.setattr(core.lightmap, "NEAR_ELEMENTS", near_elements)
+    ground = quad((-6, 0, 0), (6, 0, 0), (6, 8, 0), (-6, 8, 0))
+    floor = quad((-6, -4, 0), (6, -4, 0), (6, 0, 0), (-6, 0, 0))
+    ceiling = quad((-6, -4, 3), (-6, 0, 3), (6, 0, 3), (6, -4, 3))
+    wall = quad((-6, -4, 0), (-6, -4, 3), (6, -4, 3), (6, -4, 0))
+    scene = Scene(np.concatenate([ground, floor, ceiling, wall]), [0, 0, 1, 1, 2, 2, 3, 3],
+                  [Material(name, (value,) * 3) for name, value in
+                   (("ground", 0.8), ("floor", 0.01), ("ceiling", 0.7), ("wall", 0.0))],
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    solution = bake(scene, BakeSettings(patch_size_m=4.0, element_size_m=4.0))
+    corner_uv = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], dtype=np.float64)
+    plan = plan_texels(solution, np.array([2, 3]), corner_uv, 48, 16,
+                       LightmapSettings(indirect="gather", gather_samples_per_edge=16))
+    light = light_texels(solution, plan).light.reshape(-1, 3)[plan.pixel, 0]
+    middle = np.flatnonzero((np.abs(plan.points[:, 0]) < 1.5) & (np.abs(plan.points[:, 1] + 2) < 1.7))
+    assert len(middle) == 168
+    reference = path_traced_indirect(scene, solution.caster, plan.points[middle], (0.0, 0.0, 1.0), 1200, 12, 1,
+                                     solution.offset_m).mean() / np.pi
+    ours = light[middle].mean()
+    if near_elements == 0.0:
+        assert ours < 0.95 * reference   # the test can fail: the one-element ceiling is far too dark
+    else:
+        assert ours == pytest.approx(reference, rel=0.03)
