@@ -608,9 +608,11 @@ def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(mon
     side to a 12 x 8 m ground (0.8) under a sun of 3 W/m^2 straight above: the floor's light all comes off the
     ceiling, which the sunlit ground lights from beside the arcade, strongest by the opening. With 4 m elements
     the ceiling is one element deep, and its one value is not the light of the spots the floor's gather rays meet:
-    those within 2 element sizes are gathered again there. The floor's middle 168 texels, against path tracing
-    from their points (12 bounces, 1,200 paths each): within 3% (measured -0.4%; -1.6% to +0.3% over four other
-    seeds of the bake, gather and paths); with the element's value at every hit, 6.9% too dark (6.6-7.3%)."""
+    those within 2 element sizes are gathered again there. The solve runs to a residual of 0.001 (at the default
+    0.01 it stops before the light between ground and ceiling settles, and the ceiling's elements come out 2.7%
+    dark). The floor's middle 168 texels, against path tracing from their points (12 bounces, 1,200 paths each):
+    within 3% (measured -1.0%; -0.3% to -2.1% over four other seeds of the bake, gather and paths); with the
+    element's value at every hit, 4.2% too dark (4.1-4.8%)."""
     monkeypatch.setattr(core.lightmap, "NEAR_ELEMENTS", near_elements)
     ground = quad((-6, 0, 0), (6, 0, 0), (6, 8, 0), (-6, 8, 0))
     floor = quad((-6, -4, 0), (6, -4, 0), (6, 0, 0), (-6, 0, 0))
@@ -620,7 +622,7 @@ def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(mon
                   [Material(name, (value,) * 3) for name, value in
                    (("ground", 0.8), ("floor", 0.01), ("ceiling", 0.7), ("wall", 0.0))],
                   lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
-    solution = bake(scene, BakeSettings(patch_size_m=4.0, element_size_m=4.0))
+    solution = bake(scene, BakeSettings(patch_size_m=4.0, element_size_m=4.0, residual_threshold=0.001))
     corner_uv = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], dtype=np.float64)
     plan = plan_texels(solution, np.array([2, 3]), corner_uv, 48, 16,
                        LightmapSettings(indirect="gather", gather_samples_per_edge=16))
@@ -631,6 +633,6 @@ def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(mon
                                      solution.offset_m).mean() / np.pi
     ours = light[middle].mean()
     if near_elements == 0.0:
-        assert ours < 0.95 * reference   # the test can fail: the one-element ceiling is far too dark
+        assert ours < 0.97 * reference   # the test can fail: the one-element ceiling is too dark
     else:
         assert ours == pytest.approx(reference, rel=0.03)
