@@ -609,8 +609,8 @@ def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(mon
     ceiling, which the sunlit ground lights from beside the arcade, strongest by the opening. With 4 m elements
     the ceiling is one element deep, and its one value is not the light of the spots the floor's gather rays meet:
     those within 2 element sizes are gathered again there. The solve runs to a residual of 0.001 (at the default
-    0.01 it stops before the light between ground and ceiling settles, and the ceiling's elements come out 2.7%
-    dark). The floor's middle 168 texels, against path tracing from their points (12 bounces, 1,200 paths each):
+    0.01 it stops before the light between ground and ceiling settles: with 0.5 m elements, the ceiling's came out
+    2.7% dark). The floor's middle 168 texels, against path tracing from their points (12 bounces, 1,200 paths each):
     within 3% (measured -1.0%; -0.3% to -2.1% over four other seeds of the bake, gather and paths); with the
     element's value at every hit, 4.2% too dark (4.1-4.8%)."""
     monkeypatch.setattr(core.lightmap, "NEAR_ELEMENTS", near_elements)
