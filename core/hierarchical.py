@@ -11,9 +11,10 @@
    samples.
 3. Radiosity is found by Jacobi iteration of B = E + rho (H_direct + sum_links F B_node) (Cohen & Wallace 1993,
    ch. 5), where B_node is a node's mean radiosity per side over its exposed area, a prefix-sum difference
-   (core.cluster_tree). It stops when the change in radiated power falls below the residual threshold; the light
-   the remaining iterations would add is the ambient term (Cohen et al. 1988), a geometric series whose ratio is
-   the decay of that change from one iteration to the next.
+   (core.cluster_tree). It stops when the change in radiated power falls below the residual threshold, and the
+   receivers' own irradiance has settled to that threshold over most of the lit area; the light the remaining
+   iterations would add is the ambient term (Cohen et al. 1988), a geometric series whose ratio is the decay of
+   that change from one iteration to the next.
 
 Memory: the links (16 bytes each, a few hundred per live side), the tree (O(n)) and per-element arrays: nothing is
 O(n^2), and nothing depends on the input triangle count beyond the pieces.
@@ -39,6 +40,12 @@ from .solver import ConvergenceStep
 from .surface_probes import inside_closed_geometry
 
 SIDES = np.array([1.0, -1.0])  # front, back: the side's normal is SIDES[side] x the element's normal
+# The solve runs until the receivers making up this share of the lit area changed their irradiance by at most the
+# residual threshold in the last iteration. The radiated power's change is the bright surfaces': light that settles
+# slowly between dim ones (an arcade's floor lit off its ceiling) stopped 13-24% off (docs/benchmarks.md,
+# "Settled receivers").
+SETTLED_AREA_SHARE = 0.95
+SETTLED_MIN_LIGHT = 1e-3  # of the receivers' mean irradiance: dimmer ones do not count as lit there
 EMITTED, REFLECTED = 0, 1  # the parts of the light the links transfer, each with its energy balance
 
 
@@ -192,6 +199,20 @@ class HierarchicalState:
         return tail
 
 
+def settled_change(state: HierarchicalState, area_m2: np.ndarray) -> float:
+    """The last iteration's change of a receiver's irradiance over that irradiance (summed over RGB) that the
+    receivers making up SETTLED_AREA_SHARE of the lit area (``area_m2`` (R,) per receiver) stay within. Lit: at
+    least SETTLED_MIN_LIGHT of the receivers' mean irradiance, so that a crack's trickle of light holds no solve."""
+    total = state.irradiance[state.receivers.element, state.receivers.side].sum(axis=1)
+    lit = total > SETTLED_MIN_LIGHT * np.average(total, weights=area_m2)
+    if not lit.any():
+        return 0.0
+    change = np.abs(state.increment[lit]).sum(axis=1) / total[lit]
+    order = np.argsort(change, kind="stable")
+    covered = np.cumsum(area_m2[lit][order])
+    return float(change[order][min(np.searchsorted(covered, SETTLED_AREA_SHARE * covered[-1]), len(order) - 1)])
+
+
 def node_radiosity(tree: ClusterTree, radiosity: np.ndarray, exposed_m2: np.ndarray) -> np.ndarray:
     """(N, 6, 3) mean radiosity of every node's surfaces per direction class, weighted by exposed area (0 where
     nothing is exposed); ``radiosity`` (n, 2, 3) and ``exposed_m2`` (n, 2) per element side."""
@@ -248,9 +269,10 @@ def solve(state: HierarchicalState, residual_threshold: float, max_iterations: i
         state.power_change_w = power_change
         residual = float(power_change.sum() / injected) if injected else 0.0
         state.history.append(ConvergenceStep(iteration, residual, time.perf_counter() - started, rays()))
-        progress(min(1.0, np.log(max(residual, 1e-12)) / np.log(max(residual_threshold, 1e-12))),
+        unsettled = max(residual, settled_change(state, area[:, 0]))
+        progress(min(1.0, np.log(max(unsettled, 1e-12)) / np.log(max(residual_threshold, 1e-12))),
                  f"Solving: iteration {iteration}, residual {residual:.4f}")
-        if residual <= residual_threshold and iteration - first + 1 >= min_iterations:
+        if unsettled <= residual_threshold and iteration - first + 1 >= min_iterations:
             break
     # The enclosure: the share of the power the receivers radiate that lands on the scene.
     power = (radiosity[receivers.element, receivers.side] * area).sum(axis=1)

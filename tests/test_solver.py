@@ -2,8 +2,9 @@
 import numpy as np
 import pytest
 
+import core.hierarchical
 import core.links
-from core import BakeSettings, Material, PointLight, Scene, World, bake
+from core import BakeSettings, Material, PointLight, Scene, SunLight, World, bake
 from core.bake import ROUGH_RESIDUAL
 from core.cluster_tree import build_tree
 from core.clusters import SAMPLES
@@ -281,12 +282,14 @@ def test_bake_adds_the_ambient_term_for_what_an_early_stop_left_unshot(solver):
     assert without < 0.9 * 5.0
 
 
-def test_an_early_stop_beside_a_bright_open_plane_still_fills_a_closed_room():
+def test_an_early_stop_beside_a_bright_open_plane_still_fills_a_closed_room(monkeypatch):
     """The rho = 0.8 furnace room (B = E / (1 - rho) = 5 inside) 10 m from a lamp-lit plane open to the sky: the
-    plane's first reflection dominates the injected power, so the solve stops after two iterations with the room
-    half filled. The ambient term continues the last increment by the iterations' own decay (0.8 in the room),
-    so the room's mean comes within 1% of 5; a ratio of the power-weighted reflectance times the enclosure (the
-    plane's light mostly escapes) left it at 2.46."""
+    plane's first reflection dominates the injected power, so the power's change alone (the settled receivers'
+    test turned off) stops the solve after two iterations with the room half filled. The ambient term continues
+    the last increment by the iterations' own decay (0.8 in the room), so the room's mean comes within 1% of 5; a
+    ratio of the power-weighted reflectance times the enclosure (the plane's light mostly escapes) left it at
+    2.46."""
+    monkeypatch.setattr(core.hierarchical, "SETTLED_AREA_SHARE", 0.0)
     room, _ = closed_box(0.8, uniform_exitance=1.0)
     plane = quad((10, -5, 0), (20, -5, 0), (20, 5, 0), (10, 5, 0))
     scene = Scene(np.concatenate([room.triangles, plane]), np.r_[np.zeros(12, int), np.ones(2, int)],
@@ -298,6 +301,31 @@ def test_an_early_stop_beside_a_bright_open_plane_still_fills_a_closed_room():
     stopped = elements.emitted_exitance + elements.reflectance * elements.irradiance[:, 0]
     assert stopped[in_room].mean() < 0.6 * 5.0
     assert solution.element_radiosity()[in_room].mean() == pytest.approx(5.0, rel=0.01)
+
+
+def test_light_between_dim_surfaces_settles_before_the_solve_stops():
+    """A 12 x 4 m arcade floor (reflectance 0.01) under a ceiling 3 m up (0.7) and a black back wall, open on one
+    side to a 12 x 8 m ground (0.8) under a sun straight above, with 0.5 m elements: the floor's light all comes
+    off the ceiling, which the sunlit ground lights. The ground's reflection dominates the radiated power, whose
+    change fell below a residual of 0.02 after two iterations, when the floor had just received its first light:
+    the ambient term, continuing that first arrival at the scene's decay, left the floor 24% too bright. The
+    solve now also waits until 95% of the lit area changed by at most the residual in the last iteration: every
+    surface's mean is then within 1% of the converged solve's (measured 0.1%)."""
+    ground = quad((-6, 0, 0), (6, 0, 0), (6, 8, 0), (-6, 8, 0))
+    floor = quad((-6, -4, 0), (6, -4, 0), (6, 0, 0), (-6, 0, 0))
+    ceiling = quad((-6, -4, 3), (-6, 0, 3), (6, 0, 3), (6, -4, 3))
+    wall = quad((-6, -4, 0), (-6, -4, 3), (6, -4, 3), (6, -4, 0))
+    scene = Scene(np.concatenate([ground, floor, ceiling, wall]), [0, 0, 1, 1, 2, 2, 3, 3],
+                  [Material(name, (value,) * 3) for name, value in
+                   (("ground", 0.8), ("floor", 0.01), ("ceiling", 0.7), ("wall", 0.0))],
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    light = {}
+    for residual in (0.02, 1e-5):
+        solution = bake(scene, BakeSettings(patch_size_m=0.5, element_size_m=0.5, residual_threshold=residual))
+        point = solution.elements.point[:, 0]
+        surface = np.select([point[:, 2] > 2.9, point[:, 1] < -3.9, point[:, 1] < 0], [2, 3, 1], 0)
+        light[residual] = [solution.element_light()[surface == index].mean() for index in range(4)]
+    assert light[0.02] == pytest.approx(light[1e-5], rel=0.01)
 
 
 def test_open_scene_gets_no_ambient_light():
