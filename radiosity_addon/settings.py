@@ -68,7 +68,8 @@ SETTINGS = (
     Setting("adaptive_passes", "Adaptive Passes", 1, "Passes that split elements where light changes fast "
             "(shadow edges) (Custom quality)", flag="--adaptive-passes", low=0, high=8, enabled_when=_custom),
     Setting("residual", "Convergence", 0.01, "Stop when the light still changing is this share of the injected "
-            "power and of most surfaces' own light (Custom quality)", flag="--residual", low=1e-6, high=1.0, precision=4, enabled_when=_custom),
+            "power and of most surfaces' own light (Custom quality)", flag="--residual", low=1e-6, high=1.0,
+            precision=4, enabled_when=_custom),
     Setting("light_samples", "Light Samples", 4, "Shadow rays per element and soft light: this number squared "
             "(Custom quality)", flag="--light-samples", low=1, high=64, soft_high=16, enabled_when=_custom),
     Setting("form_factors", "Form Factors", "raycast", "How the classic solvers find form factors",

@@ -611,8 +611,9 @@ def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(mon
     those within 2 element sizes are gathered again there. At core's default residual (0.01) the solve waits
     for the light between ground and ceiling to settle (core.hierarchical.SETTLED_AREA_SHARE: 5 iterations; it
     stopped after 2, and with the element's value at every hit the floor measured 6.9% dark). The floor's middle
-    168 texels, against path tracing from their points (12 bounces, 1,200 paths each): within 3% (measured -1.0%; -0.3% to -2.1% over four other seeds of the bake, gather and paths); with the
-    element's value at every hit, 4.3% too dark (4.1-4.8% over other seeds at a residual of 0.001)."""
+    168 texels, against path tracing from their points (12 bounces, 1,200 paths each): within 3% (measured
+    -1.0%; -0.3% to -2.1% over four other seeds of the bake, gather and paths); with the element's value at every
+    hit, 4.3% too dark (4.1-4.8% over other seeds at a residual of 0.001)."""
     monkeypatch.setattr(core.lightmap, "NEAR_ELEMENTS", near_elements)
     ground = quad((-6, 0, 0), (6, 0, 0), (6, 8, 0), (-6, 8, 0))
     floor = quad((-6, -4, 0), (6, -4, 0), (6, 0, 0), (-6, 0, 0))
