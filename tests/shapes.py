@@ -1,7 +1,9 @@
-"""Test geometry: boxes, quads and spheres as (T, 3, 3) triangle arrays."""
+"""Test geometry: boxes, quads and spheres as (T, 3, 3) triangle arrays, and scenes built of them."""
 from __future__ import annotations
 
 import numpy as np
+
+from core import Material, Scene, SunLight
 
 
 def quad(a, b, c, d) -> np.ndarray:
@@ -50,3 +52,17 @@ def uv_sphere(radius: float, bands_z: np.ndarray, segments: int, ring_height: fl
                     tris.append(t if inward else t[::-1])
                     band.append(b)
     return np.array(tris), np.array(band)
+
+
+def sunlit_arcade() -> Scene:
+    """A 12 x 4 m arcade floor (reflectance 0.01) under a ceiling 3 m up (0.7) and a black back wall, open on one
+    side to a 12 x 8 m ground (0.8) under a sun of 3 W/m^2 straight above: the floor's light all comes off the
+    ceiling, which the sunlit ground lights from beside the arcade. Material order: ground, floor, ceiling, wall."""
+    ground = quad((-6, 0, 0), (6, 0, 0), (6, 8, 0), (-6, 8, 0))
+    floor = quad((-6, -4, 0), (6, -4, 0), (6, 0, 0), (-6, 0, 0))
+    ceiling = quad((-6, -4, 3), (-6, 0, 3), (6, 0, 3), (6, -4, 3))
+    wall = quad((-6, -4, 0), (-6, -4, 3), (6, -4, 3), (6, -4, 0))
+    return Scene(np.concatenate([ground, floor, ceiling, wall]), [0, 0, 1, 1, 2, 2, 3, 3],
+                 [Material(name, (value,) * 3) for name, value in
+                  (("ground", 0.8), ("floor", 0.01), ("ceiling", 0.7), ("wall", 0.0))],
+                 lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])

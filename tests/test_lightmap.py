@@ -21,7 +21,7 @@ from core.raycast import RayCaster
 from core.sampling import cosine_hemisphere
 from core.solution_file import load_solution, save_solution
 from core.texels import footprint_barycentrics, footprint_steps, rasterize, subcell_order
-from shapes import box_faces, quad
+from shapes import box_faces, quad, sunlit_arcade
 
 
 def as_mesh(triangles):
@@ -615,14 +615,7 @@ def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(mon
     -1.0%; -0.3% to -2.1% over four other seeds of the bake, gather and paths); with the element's value at every
     hit, 4.3% too dark (4.1-4.8% over other seeds at a residual of 0.001)."""
     monkeypatch.setattr(core.lightmap, "NEAR_ELEMENTS", near_elements)
-    ground = quad((-6, 0, 0), (6, 0, 0), (6, 8, 0), (-6, 8, 0))
-    floor = quad((-6, -4, 0), (6, -4, 0), (6, 0, 0), (-6, 0, 0))
-    ceiling = quad((-6, -4, 3), (-6, 0, 3), (6, 0, 3), (6, -4, 3))
-    wall = quad((-6, -4, 0), (-6, -4, 3), (6, -4, 3), (6, -4, 0))
-    scene = Scene(np.concatenate([ground, floor, ceiling, wall]), [0, 0, 1, 1, 2, 2, 3, 3],
-                  [Material(name, (value,) * 3) for name, value in
-                   (("ground", 0.8), ("floor", 0.01), ("ceiling", 0.7), ("wall", 0.0))],
-                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    scene = sunlit_arcade()
     solution = bake(scene, BakeSettings(patch_size_m=4.0, element_size_m=4.0))
     corner_uv = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], dtype=np.float64)
     plan = plan_texels(solution, np.array([2, 3]), corner_uv, 48, 16,

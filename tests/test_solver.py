@@ -4,7 +4,7 @@ import pytest
 
 import core.hierarchical
 import core.links
-from core import BakeSettings, Material, PointLight, Scene, SunLight, World, bake
+from core import BakeSettings, Material, PointLight, Scene, World, bake
 from core.bake import ROUGH_RESIDUAL
 from core.cluster_tree import build_tree
 from core.clusters import SAMPLES
@@ -13,7 +13,7 @@ from core.raycast import RayCaster
 from core.formfactor_rows import Patches, RayCastRows
 from core.hierarchical import node_radiosity
 from core.solver import FormFactorCache, RadiosityState, patch_mean, solve_direct
-from shapes import box_faces, quad, uv_sphere
+from shapes import box_faces, quad, sunlit_arcade, uv_sphere
 
 
 def closed_box(reflectance, ceiling_exitance=None, uniform_exitance=None):
@@ -311,14 +311,7 @@ def test_light_between_dim_surfaces_settles_before_the_solve_stops():
     the ambient term, continuing that first arrival at the scene's decay, left the floor 24% too bright. The
     solve now also waits until 95% of the lit area changed by at most the residual in the last iteration: every
     surface's mean is then within 1% of the converged solve's (measured 0.1%)."""
-    ground = quad((-6, 0, 0), (6, 0, 0), (6, 8, 0), (-6, 8, 0))
-    floor = quad((-6, -4, 0), (6, -4, 0), (6, 0, 0), (-6, 0, 0))
-    ceiling = quad((-6, -4, 3), (-6, 0, 3), (6, 0, 3), (6, -4, 3))
-    wall = quad((-6, -4, 0), (-6, -4, 3), (6, -4, 3), (6, -4, 0))
-    scene = Scene(np.concatenate([ground, floor, ceiling, wall]), [0, 0, 1, 1, 2, 2, 3, 3],
-                  [Material(name, (value,) * 3) for name, value in
-                   (("ground", 0.8), ("floor", 0.01), ("ceiling", 0.7), ("wall", 0.0))],
-                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    scene = sunlit_arcade()
     light = {}
     for residual in (0.02, 1e-5):
         solution = bake(scene, BakeSettings(patch_size_m=0.5, element_size_m=0.5, residual_threshold=residual))
