@@ -234,9 +234,10 @@ def solve(state: HierarchicalState, residual_threshold: float, max_iterations: i
           rays=lambda: 0, progress: Progress = no_progress, cancelled=never_cancelled,
           sampled_scale: np.ndarray | None = None, min_iterations: int = 1) -> HierarchicalState:
     """Jacobi iterations, from the state's irradiance, until the change in radiated power is below
-    ``residual_threshold`` of the injected power (emission plus first reflection of direct light), and at least
-    ``min_iterations`` of them (a light group's solve as many as the solve of the whole, so that the ambient
-    term, measured from the last two, is measured alike: ``HierarchicalState.ambient``). Emitted and
+    ``residual_threshold`` of the injected power (emission plus first reflection of direct light) and the lit
+    area's receivers have settled to it (``settled_change``), and at least ``min_iterations`` of them (a light
+    group's solve as many as the solve of the whole, so that the ambient term, measured from the last two, is
+    measured alike: ``HierarchicalState.ambient``). Emitted and
     reflected radiosity are gathered apart (_BalancedTransfer): the light straight from emissive surfaces once,
     the reflected light (``gathered``: the indirect light outputs interpolate) in every iteration. With
     ``sampled_scale`` (another solve's, on the same links) the balance keeps that scale: the transfer is then one
