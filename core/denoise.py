@@ -12,10 +12,16 @@ count; stratified directions make it an overestimate, which errs on the side of 
 differ by no more than their noise are averaged; a real change of the indirect light, a contact shadow or a bright
 wall's bounce, differs by more and is kept.
 
-Neighbours come from the page's texel grid within RADIUS_TEXELS, and count only on the same surface: normals within
-NORMAL_COSINE of each other, the neighbour within PLANE_TEXELS of the texel's plane, and no farther away in the
-world than its place in the grid allows (texels of another chart that sit beside it in the atlas are not its
-neighbours). Direct light, exact per texel, is not filtered.
+The filter runs in passes over ever wider windows (the a-trous scheme: Dammertz et al. 2010, "Edge-Avoiding
+A-Trous Wavelet Transform for fast Global Illumination Filtering"): a 3 x 3 window of neighbours PASS_STEPS[i]
+texels apart. Each pass hands the next the variance of its weighted means, sum(w^2 Var) / (sum w)^2 (the
+neighbours' rays are independent), so a later pass averages only what is still noise at its lower level (Schied
+et al. 2017, "Spatiotemporal Variance-Guided Filtering", section 4.4).
+
+Neighbours count only on the same surface: normals within NORMAL_COSINE of each other, the neighbour within
+PLANE_TEXELS of the texel's plane, and no farther away in the world than its place in the grid allows (texels of
+another chart that sit beside it in the atlas are not its neighbours). Direct light, exact per texel, is not
+filtered.
 """
 from __future__ import annotations
 
@@ -23,8 +29,9 @@ import numpy as np
 
 from .geometry import lengths
 
-RADIUS_TEXELS = 2
-# k of the range term: 1.5-2 measured best on the courtyard (docs/benchmarks.md, "Denoising the gather").
+# Steps of the passes' windows and k of the range term: measured on the courtyard (docs/benchmarks.md,
+# "Denoising the gather" and "The denoiser in passes").
+PASS_STEPS = (1, 2)
 NOISE_MULTIPLE = 2.0
 NORMAL_COSINE = 0.9
 PLANE_TEXELS = 0.5
@@ -40,23 +47,36 @@ def denoise_gathered(pixel: np.ndarray, width: int, height: int, points: np.ndar
     the weights ``light`` gives: a linear filter, so that they still sum to the filtered light."""
     texel_at = np.full(width * height, -1, dtype=np.int64)
     texel_at[pixel] = np.arange(len(pixel))
-    x, y = pixel % width, pixel // width
     filtered = light if parts is None else parts
-    total, weight = filtered.copy(), np.ones(len(pixel))
-    for dy in range(-RADIUS_TEXELS, RADIUS_TEXELS + 1):
-        for dx in range(-RADIUS_TEXELS, RADIUS_TEXELS + 1):  # one offset of the window at a time over all texels
-            if dx == dy == 0:
-                continue
-            on_page = np.flatnonzero((x + dx >= 0) & (x + dx < width) & (y + dy >= 0) & (y + dy < height))
-            neighbour = texel_at[pixel[on_page] + dy * width + dx]
-            texel, neighbour = on_page[neighbour >= 0], neighbour[neighbour >= 0]
-            same = _same_surface(points[texel], normals[texel], points[neighbour], normals[neighbour],
-                                 texel_m[texel] * (np.hypot(dx, dy) + GRID_SLACK_TEXELS), texel_m[texel])
-            texel, neighbour = texel[same], neighbour[same]
-            w = _noise_weight(light[texel], variance[texel], light[neighbour], variance[neighbour])
-            total[..., texel, :] += w[:, None] * filtered[..., neighbour, :]
-            weight[texel] += w
-    return total / weight[:, None]
+    for step in PASS_STEPS:
+        neighbours = [_neighbours(pixel, width, height, texel_at, points, normals, texel_m, dx * step, dy * step)
+                      for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dx or dy]
+        filtered, variance = _filter_pass(neighbours, light, variance, filtered)
+        light = filtered if parts is None else filtered.sum(axis=0)
+    return filtered
+
+
+def _neighbours(pixel, width, height, texel_at, points, normals, texel_m, dx, dy) -> tuple[np.ndarray, np.ndarray]:
+    """(texels, their neighbours): the pairs of texels dx, dy apart on the page that lie on one surface."""
+    x, y = pixel % width, pixel // width
+    on_page = np.flatnonzero((x + dx >= 0) & (x + dx < width) & (y + dy >= 0) & (y + dy < height))
+    neighbour = texel_at[pixel[on_page] + dy * width + dx]
+    texel, neighbour = on_page[neighbour >= 0], neighbour[neighbour >= 0]
+    same = _same_surface(points[texel], normals[texel], points[neighbour], normals[neighbour],
+                         texel_m[texel] * (np.hypot(dx, dy) + GRID_SLACK_TEXELS), texel_m[texel])
+    return texel[same], neighbour[same]
+
+
+def _filter_pass(neighbours, light, variance, filtered) -> tuple[np.ndarray, np.ndarray]:
+    """One pass: ``filtered`` (m, 3) or (G, m, 3) averaged over each texel and its ``neighbours`` (pairs), weighted
+    by ``_noise_weight`` of ``light``; and the (m, 3) variance of the averages."""
+    total, weight, weighted_variance = filtered.copy(), np.ones(len(light)), variance.copy()
+    for texel, neighbour in neighbours:
+        w = _noise_weight(light[texel], variance[texel], light[neighbour], variance[neighbour])
+        total[..., texel, :] += w[:, None] * filtered[..., neighbour, :]
+        weight[texel] += w
+        weighted_variance[texel] += (w ** 2)[:, None] * variance[neighbour]
+    return total / weight[:, None], weighted_variance / weight[:, None] ** 2
 
 
 def _same_surface(points, normals, other_points, other_normals, reach_m, texel_m) -> np.ndarray:
