@@ -62,12 +62,9 @@ def sampled_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, norm
         if exact_lights > 0:
             brightest = np.argsort(-unshadowed, axis=1, kind="stable")[:, :exact_lights]
             np.put_along_axis(exact, brightest, True, axis=1)
-        chance = _choice_chance(np.where(exact, 0.0, unshadowed), ~exact)
-        draw = np.random.default_rng(seed).random(len(points))
-        pick = np.minimum((draw[:, None] > np.cumsum(chance, axis=1)).sum(axis=1), len(lights) - 1)
+        pick, chance = _choose(unshadowed, exact, np.random.default_rng(seed).random(len(points)))
         picked = np.zeros(exact.shape)
-        picked[np.arange(len(points)), pick] = np.where(exact.all(axis=1), 0.0, 1.0) / np.maximum(
-            chance[np.arange(len(points)), pick], 1e-300)
+        picked[np.arange(len(points)), pick] = np.where(exact.all(axis=1), 0.0, 1.0) / np.maximum(chance, 1e-300)
         scale = np.where(exact, 1.0, picked)  # each light's weight per point: 1 tested, 1/chance chosen, else 0
         for index, (light, factor) in enumerate(zip(lights, scene.light_factor)):
             rows = np.flatnonzero(scale[:, index] > 0)
@@ -81,14 +78,24 @@ def sampled_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, norm
     return irradiance
 
 
-def _choice_chance(unshadowed: np.ndarray, open_to_choice: np.ndarray) -> np.ndarray:
-    """(m, L) chance of choosing each light at each point among those ``open_to_choice``: a share UNIFORM_CHOICE
-    uniform over them, the rest in proportion to ``unshadowed`` (uniform where that is 0 for all of them)."""
-    count = np.maximum(open_to_choice.sum(axis=1, keepdims=True), 1)
-    uniform = open_to_choice / count
-    total = unshadowed.sum(axis=1, keepdims=True)
-    share = np.where(total > 0, unshadowed / np.maximum(total, 1e-300), uniform)
-    return UNIFORM_CHOICE * uniform + (1.0 - UNIFORM_CHOICE) * share
+def _choose(unshadowed: np.ndarray, exact: np.ndarray, draw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(m,) the light chosen at each point among those not ``exact`` by its (m,) uniform ``draw``, and the chance
+    of that choice: a share UNIFORM_CHOICE of the draws picks uniformly among them, the rest in proportion to
+    ``unshadowed`` (uniformly where that is 0 for all of them). Inverting the cumulative weights of each row
+    (one cumulative sum, no per-light table of chances)."""
+    weight = np.where(exact, 0.0, unshadowed)
+    open_so_far = np.cumsum(~exact, axis=1)
+    cumulative = np.cumsum(weight, axis=1)
+    count, total = open_so_far[:, -1], cumulative[:, -1]
+    by_chance = draw < UNIFORM_CHOICE
+    uniform = by_chance | (total <= 0)
+    rescaled = np.where(by_chance, draw / UNIFORM_CHOICE, (draw - UNIFORM_CHOICE) / (1.0 - UNIFORM_CHOICE))
+    pick = np.where(uniform, (np.floor(rescaled * count)[:, None] >= open_so_far).sum(axis=1),
+                    ((rescaled * total)[:, None] >= cumulative).sum(axis=1))
+    pick = np.minimum(pick, unshadowed.shape[1] - 1)
+    share = np.where(total > 0, weight[np.arange(len(draw)), pick] / np.maximum(total, 1e-300),
+                     1.0 / np.maximum(count, 1))
+    return pick, UNIFORM_CHOICE / np.maximum(count, 1) + (1.0 - UNIFORM_CHOICE) * share
 
 
 def _world(scene: Scene, caster, points, normals, offset_m, samples_per_edge, seed) -> np.ndarray:

@@ -121,7 +121,7 @@ def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_
     triangles = solution.scene.triangles
     above = np.einsum("mrk,mk->mr", directions.reshape(count, rays, 3), face_normals).ravel() > 0
     landed = np.flatnonzero((hit >= 0) & above)
-    side = (np.einsum("mk,mk->m", triangle_unit_normals(triangles[hit[landed]]), directions[landed]) > 0)
+    side = (np.einsum("mk,mk->m", solution.scene.unit_normals[hit[landed]], directions[landed]) > 0)
     side = side.astype(np.int64)
     near = np.zeros(len(landed), dtype=bool)
     if near_m > 0 and near_samples_per_edge > 0:

@@ -13,6 +13,7 @@ Validation happens once, on construction, and raises :class:`SceneError` naming 
 from __future__ import annotations
 
 import copy
+from functools import cached_property
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -205,6 +206,11 @@ class Scene:
         if not (~self.casts_only).any():
             raise SceneError("Nothing to bake: every triangle has zero area or is 'shadow only'.")
 
+    @cached_property
+    def unit_normals(self) -> np.ndarray:
+        """(T, 3) each triangle's unit normal (counter-clockwise corners face it), for the rays' hits."""
+        return triangle_unit_normals(self.triangles)
+
     @property
     def reflectance(self) -> np.ndarray:
         """(M, 3) reflectance per material."""
@@ -224,7 +230,7 @@ class Scene:
         Cycles shades a smooth triangle (and bakes it); the triangle's normal where they cancel out."""
         normal = np.einsum("mc,mck->mk", barycentric, self.corner_normals[scene_triangle])
         length = lengths(normal)[:, None]
-        flat = triangle_unit_normals(self.triangles[scene_triangle])
+        flat = self.unit_normals[scene_triangle]
         return np.where(length > 1e-6, normal / np.maximum(length, 1e-300), flat)
 
     def textured_rows(self, scene_triangle: np.ndarray):

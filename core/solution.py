@@ -218,7 +218,7 @@ class Solution:
         lit = np.flatnonzero(solved)[alive]
         triangles = self.scene.triangles[scene_triangle[lit]]
         points = np.einsum("mc,mck->mk", barycentric[lit], triangles)
-        normals = triangle_unit_normals(triangles) * np.where(face[alive] == FRONT, 1.0, -1.0)[:, None]
+        normals = self.scene.unit_normals[scene_triangle[lit]] * np.where(face[alive] == FRONT, 1.0, -1.0)[:, None]
         gathered = gather_samples_per_edge > 0
         if gathered:
             indirect = np.pi * final_gather(self, self.caster, points[:, None, :], normals, gather_samples_per_edge,
