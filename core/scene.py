@@ -13,8 +13,8 @@ Validation happens once, on construction, and raises :class:`SceneError` naming 
 from __future__ import annotations
 
 import copy
-from functools import cached_property
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
