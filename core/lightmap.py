@@ -19,7 +19,8 @@ from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import inset, lengths, triangle_areas
 from .surface_probes import face_to_face_contact, inside_closed_geometry, push_out_of_geometry
-from .texels import footprint_barycentrics, footprint_steps, rasterize, sample_points, subcell_order
+from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, rasterize, sample_points,
+                     subcell_order)
 
 INDIRECT_METHODS = ("auto", "gather", "interpolate")
 # Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
@@ -236,20 +237,21 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
     gather = settings.indirect == "gather"  # its rays bring the world's light
     lightings = list(groups.values()) if groups else [solution]
-    direct = np.stack([_footprint_mean(scene, light, tri, sub_bary)
-                       for light in _direct_light(lightings, plan, chunk, shading, world=not gather)])
+    in_triangle = footprint_inside(barycentric, plan.steps[chunk], settings.subtexel_samples_per_edge)
+    direct_light, weight = _direct_light(lightings, plan, chunk, shading, in_triangle, world=not gather)
+    direct = np.stack([_footprint_mean(scene, light, tri, sub_bary, weight) for light in direct_light])
     timer.lap("direct")
     if gather:
-        indirect, variance = final_gather_parts(lightings, solution.caster, sub_points,
+        indirect, variance = final_gather_parts(lightings, solution.caster, _in_turn(sub_points, in_triangle),
                                                 scene.shading_normals(tri, barycentric),
                                                 settings.gather_samples_per_edge, solution.offset_m,
                                                 settings.seed + first_texel, face_normals=normals,
                                                 near_m=NEAR_ELEMENTS * solution.element_size_m,
                                                 near_samples_per_edge=NEAR_SAMPLES_PER_EDGE)
     else:
-        inside = _inside(solution, points, normals, sub_points)
-        indirect = np.stack([_footprint_mean(scene, np.where(inside[..., None], 0.0, lit.indirect_light(
-            points, normals, tri, barycentric)[:, None, :]), tri, sub_bary) for lit in lightings])
+        buried = _inside(solution, points, normals, sub_points)
+        indirect = np.stack([_footprint_mean(scene, np.where(buried[..., None], 0.0, lit.indirect_light(
+            points, normals, tri, barycentric)[:, None, :]), tri, sub_bary, in_triangle) for lit in lightings])
         variance = np.zeros_like(indirect[0])
     timer.lap("indirect")
     return TexelLight(direct, indirect, variance)
@@ -296,13 +298,25 @@ def _inside(solution, points, normals, sub_points) -> np.ndarray:
                                   np.repeat(normals, q, axis=0), solution.offset_m).reshape(m, q)
 
 
-def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndarray) -> np.ndarray:
-    """(m, 3) reflectance-weighted mean of (m, q, 3) light over each texel's sub-points. Cycles' Diffuse bake
+def _in_turn(sub_points: np.ndarray, in_triangle: np.ndarray) -> np.ndarray:
+    """(m, q, 3) each texel's footprint points with those outside its triangle (``in_triangle`` (m, q) False)
+    replaced by those inside, in turn: the gather's rays start only where Cycles' samples land."""
+    m, q = in_triangle.shape
+    inside_first = np.argsort(~in_triangle, axis=1, kind="stable")
+    count = np.maximum(in_triangle.sum(axis=1), 1)
+    slot = inside_first[np.arange(m)[:, None], np.arange(q) % count[:, None]]
+    return sub_points[np.arange(m)[:, None], slot]
+
+
+def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndarray,
+                    weight: np.ndarray) -> np.ndarray:
+    """(m, 3) reflectance-weighted mean of (m, q, 3) light over each texel's sub-points, each also weighted by its
+    (m, q) ``weight``: the share of it inside the texel's triangle (core.texels.footprint_inside). Cycles' Diffuse bake
     without Color divides the diffuse light x colour its samples gathered by the colour they gathered, so where a
     texture's edge meets a shadow's edge inside one texel, the brighter-coloured side counts more; multiplied by
     the texture again, the texel then keeps its mean exitance."""
     m, q = light.shape[:2]
-    weight = scene.reflectance_at(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(m, q, 3)
+    weight = scene.reflectance_at(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(m, q, 3) * weight[..., None]
     total = weight.sum(axis=1)
     weighted = (weight * light).sum(axis=1) / np.where(total > 0, total, 1.0)
     return np.where(total > 0, weighted, light.mean(axis=1))
@@ -320,11 +334,14 @@ def _footprint_points(triangles_m, barycentric, steps, samples_per_edge, points,
     return sub_points, bary
 
 
-def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.ndarray, world: bool) -> np.ndarray:
+def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.ndarray, in_triangle: np.ndarray,
+                  world: bool) -> tuple[np.ndarray, np.ndarray]:
     """(g, m, q, 3) direct light of each lighting (the solution, or one per light group) at the q footprint points
-    of the chunk's texels with their (m, q, 3) unit shading normals, with 1/k the shadow rays per edge at each
-    (rounded up); the world's only if ``world``. Texels on a shadow's edge, where the points' light spreads over
-    more than PENUMBRA_SPREAD of the brightest, are lit again from p x p points spread over each point's cell of
+    of the chunk's texels with their (m, q, 3) unit shading normals, and (m, q) each point's weight in its texel's
+    mean: whether it lies in its triangle (``in_triangle``), or the share of its finer points that do where they
+    replace it. With 1/k the shadow rays per edge at each (rounded up); the world's only if ``world``. Texels on a
+    shadow's edge, where the points' light spreads over more than PENUMBRA_SPREAD of the brightest, are lit again
+    from p x p points spread over each point's cell of
     the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in place of the first (an estimate independent of the
     test that chose the texel, so the choice adds no bias): a penumbra is where a few rays per point are noisiest,
     and where a sharp shadow's edge crosses the texel, a few fixed points measure its covered share only to 1/k.
@@ -341,14 +358,19 @@ def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.nd
             world=world).reshape(len(points), per_texel, 3) for solution in lightings])
 
     light = lit(plan.sub_points[chunk], shading, slice(None), k * k * chunk.start)
+    weight = in_triangle.astype(np.float64)
     if light_samples < PENUMBRA_SAMPLES_PER_EDGE:
         edge = _shadow_edge_texels(plan, chunk, np.nan_to_num(light).sum(axis=(0, 3)))
         points, normals = _finer_footprint_points(lightings[0], plan, chunk, edge, shading)
         # Seeds past every texel's first pass (k^2 texel_count), so no ray repeats another's.
         finer = lit(points, normals, edge, k * k * plan.texel_count + points.shape[1] * chunk.start)
-        cells = finer.reshape(len(lightings), len(edge), k * k, PENUMBRA_SAMPLES_PER_EDGE ** 2, 3)
-        light[:, edge] = cells.mean(axis=3)
-    return light
+        split = PENUMBRA_SAMPLES_PER_EDGE
+        cells = finer.reshape(len(lightings), len(edge), k * k, split * split, 3)
+        finer_in = footprint_inside(barycentric[edge], plan.steps[chunk][edge], k * split)[:, subcell_order(k, split)]
+        counted = np.where(finer_in.any(axis=2, keepdims=True), finer_in, True)[None, ..., None]
+        light[:, edge] = (cells * counted).sum(axis=3) / counted.sum(axis=3)  # a cell wholly outside weighs 0
+        weight[edge] = finer_in.mean(axis=2)
+    return light, weight
 
 
 def _shadow_edge_texels(plan: TexelPlan, chunk: slice, brightness: np.ndarray) -> np.ndarray:

@@ -123,11 +123,19 @@ def footprint_steps(texels: Texels, corner_uv: np.ndarray) -> np.ndarray:
 def footprint_barycentrics(barycentric: np.ndarray, steps: np.ndarray, samples_per_edge: int) -> np.ndarray:
     """(m, k^2, 3) barycentrics of k x k stratified points over each texel's footprint (its (m, 3) centre
     barycentrics and (m, 2, 3) ``footprint_steps``), folded back into the triangle where they fall outside it
-    (mirrored at the edges, as Cycles' bake jitters its samples), so a texel holds its footprint's mean rather
-    than one point's value. Texels only partly covered (steps zero) keep their one point. Point i * k + j lies in
-    column i, row j of the texel's k x k cells (``subcell_order`` splits them further)."""
-    cells = _cell_offsets(samples_per_edge)
-    return _fold_into_triangle(barycentric[:, None, :] + np.einsum("qa,mak->mqk", cells, steps))
+    (mirrored at the edges), so that each is a point of the surface; ``footprint_inside`` tells which count in the
+    texel's mean (the footprint's part inside the triangle, as Cycles takes it), so that a texel holds its
+    footprint's mean rather than one point's value. Texels only partly covered (steps zero) keep their one point.
+    Point i * k + j lies in column i, row j of the texel's k x k cells (``subcell_order`` splits them further)."""
+    return _fold_into_triangle(_unfolded(barycentric, steps, samples_per_edge))
+
+
+def footprint_inside(barycentric: np.ndarray, steps: np.ndarray, samples_per_edge: int) -> np.ndarray:
+    """(m, k^2) whether each point of ``footprint_barycentrics`` lies in the texel's triangle before folding.
+    Cycles draws a texel's samples over its square again until they fall in its triangle (bake_jitter_barycentric
+    in its kernel, Blender 3.6 on), so a texel that crosses its triangle's edge holds the mean over the part
+    inside."""
+    return (_unfolded(barycentric, steps, samples_per_edge) >= 0.0).all(axis=-1)
 
 
 def subcell_order(samples_per_edge: int, split: int) -> np.ndarray:
@@ -136,6 +144,11 @@ def subcell_order(samples_per_edge: int, split: int) -> np.ndarray:
     column, row = np.divmod(np.arange((samples_per_edge * split) ** 2), samples_per_edge * split)
     cell = (column // split) * samples_per_edge + row // split
     return np.argsort(cell, kind="stable").reshape(samples_per_edge ** 2, split ** 2)
+
+
+def _unfolded(barycentric: np.ndarray, steps: np.ndarray, samples_per_edge: int) -> np.ndarray:
+    """(m, k^2, 3) barycentrics of the k x k points over each texel's footprint, outside the triangle or not."""
+    return barycentric[:, None, :] + np.einsum("qa,mak->mqk", _cell_offsets(samples_per_edge), steps)
 
 
 def _cell_offsets(samples_per_edge: int) -> np.ndarray:
