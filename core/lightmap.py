@@ -309,14 +309,15 @@ def _in_turn(sub_points: np.ndarray, in_triangle: np.ndarray) -> np.ndarray:
 
 
 def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndarray,
-                    weight: np.ndarray) -> np.ndarray:
+                    point_weight: np.ndarray) -> np.ndarray:
     """(m, 3) reflectance-weighted mean of (m, q, 3) light over each texel's sub-points, each also weighted by its
-    (m, q) ``weight``: the share of it inside the texel's triangle (core.texels.footprint_inside). Cycles' Diffuse bake
-    without Color divides the diffuse light x colour its samples gathered by the colour they gathered, so where a
-    texture's edge meets a shadow's edge inside one texel, the brighter-coloured side counts more; multiplied by
-    the texture again, the texel then keeps its mean exitance."""
+    (m, q) ``point_weight``: the share of it inside the texel's triangle (core.texels.footprint_inside). Cycles'
+    Diffuse bake without Color divides the diffuse light x colour its samples gathered by the colour they gathered,
+    so where a texture's edge meets a shadow's edge inside one texel, the brighter-coloured side counts more;
+    multiplied by the texture again, the texel then keeps its mean exitance."""
     m, q = light.shape[:2]
-    weight = scene.reflectance_at(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(m, q, 3) * weight[..., None]
+    reflectance = scene.reflectance_at(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(m, q, 3)
+    weight = reflectance * point_weight[..., None]
     total = weight.sum(axis=1)
     weighted = (weight * light).sum(axis=1) / np.where(total > 0, total, 1.0)
     return np.where(total > 0, weighted, light.mean(axis=1))
@@ -341,10 +342,10 @@ def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.nd
     mean: whether it lies in its triangle (``in_triangle``), or the share of its finer points that do where they
     replace it. With 1/k the shadow rays per edge at each (rounded up); the world's only if ``world``. Texels on a
     shadow's edge, where the points' light spreads over more than PENUMBRA_SPREAD of the brightest, are lit again
-    from p x p points spread over each point's cell of
-    the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in place of the first (an estimate independent of the
-    test that chose the texel, so the choice adds no bias): a penumbra is where a few rays per point are noisiest,
-    and where a sharp shadow's edge crosses the texel, a few fixed points measure its covered share only to 1/k.
+    from p x p points spread over each point's cell of the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in
+    place of the first (an estimate independent of the test that chose the texel, so the choice adds no bias): a
+    penumbra is where a few rays per point are noisiest, and where a sharp shadow's edge crosses the texel, a few
+    fixed points measure its covered share only to 1/k.
     The edges are found on the lightings' sum, so that light groups sum to the ordinary bake."""
     k = plan.settings.subtexel_samples_per_edge
     tri, barycentric = plan.tri[chunk], plan.barycentric[chunk]
