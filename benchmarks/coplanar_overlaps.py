@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from radiosity_baker.core.surface_probes import inside_any_triangle, triangle_planes
-from radiosity_baker.core.texels import footprint_barycentrics, footprint_steps, rasterize
+from radiosity_baker.core.texels import footprint_barycentrics, footprint_inside, footprint_steps, rasterize
 
 PLANE_TOLERANCE_M = 1e-3
 FOOTPRINT_SAMPLES_PER_EDGE = 4
@@ -18,14 +18,16 @@ FOOTPRINT_SAMPLES_PER_EDGE = 4
 def coplanar_overlap_texels(scene, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int,
                             height: int) -> np.ndarray:
     """(height, width) True for texels (centre inside a triangle of the page: ``scene_triangle`` (t,) with UVs
-    ``corner_uv`` (t, 3, 2)) with a point of their footprint (k x k points, k = FOOTPRINT_SAMPLES_PER_EDGE) inside
-    a triangle of another object in the same plane (within PLANE_TOLERANCE_M) with the same facing."""
+    ``corner_uv`` (t, 3, 2)) with a point of their footprint (k x k points, k = FOOTPRINT_SAMPLES_PER_EDGE; those
+    in the texel's own triangle, where Cycles' samples land) inside a triangle of another object in the same plane
+    (within PLANE_TOLERANCE_M) with the same facing."""
     triangles = scene.triangles
     _, plane_of, normals = triangle_planes(triangles, PLANE_TOLERANCE_M)
     texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
     inside = texels.centre_inside
-    footprint = footprint_barycentrics(texels.barycentric[inside], footprint_steps(texels, corner_uv)[inside],
-                                       FOOTPRINT_SAMPLES_PER_EDGE)
+    steps = footprint_steps(texels, corner_uv)[inside]
+    footprint = footprint_barycentrics(texels.barycentric[inside], steps, FOOTPRINT_SAMPLES_PER_EDGE)
+    in_triangle = footprint_inside(texels.barycentric[inside], steps, FOOTPRINT_SAMPLES_PER_EDGE).ravel()
     per_texel = footprint.shape[1]
     tri = np.repeat(np.asarray(scene_triangle)[texels.triangle[inside]], per_texel)
     points = np.einsum("mc,mck->mk", footprint.reshape(-1, 3), triangles[tri])
@@ -39,5 +41,5 @@ def coplanar_overlap_texels(scene, scene_triangle: np.ndarray, corner_uv: np.nda
                 overlap[mine] = inside_any_triangle(points[mine], normals[tri[mine]], triangles[others],
                                                     PLANE_TOLERANCE_M)
     image = np.zeros(width * height, dtype=bool)
-    image[texels.pixel[inside][overlap.reshape(-1, per_texel).any(axis=1)]] = True
+    image[texels.pixel[inside][(overlap & in_triangle).reshape(-1, per_texel).any(axis=1)]] = True
     return image.reshape(height, width)
