@@ -1,9 +1,9 @@
 """Texels on faces that another object's face covers in the same plane, facing the same way (two arcades'
-single-sided ceilings running into each other at a corner). Cycles bakes such a pair black: the rays from one face
-hit the other at distance zero. No render of the scene shows them black, and we light them as the face alone
-would be lit, so the benchmarks give the error against Cycles with and without these texels. A texel counts where
-any point of its footprint does: Cycles' samples spread over the texel's square, so a texel beside such a pair
-bakes partly black too."""
+single-sided ceilings running into each other at a corner). Cycles bakes and renders such a pair black: the rays
+from one face hit the other at distance zero (benchmarks/coplanar_render.py). The baker gives them no light either
+(core.surface_probes.on_another_face); the benchmarks give the error against Cycles with and without these texels,
+so that the rest of the scene is measured apart from them. A texel counts where any point of its footprint does:
+Cycles' samples spread over the texel's square, so a texel beside such a pair bakes partly black too."""
 from __future__ import annotations
 
 import numpy as np

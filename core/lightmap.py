@@ -18,7 +18,7 @@ from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts, ga
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import inset, lengths, triangle_areas
-from .surface_probes import face_to_face_contact, inside_closed_geometry, push_out_of_geometry
+from .surface_probes import inside_closed_geometry, on_another_face, push_out_of_geometry
 from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, rasterize, sample_points,
                      subcell_order)
 
@@ -108,7 +108,8 @@ class TexelPlan:
     the barycentrics of its point; points, normals: (m, 3) the point (pushed out of closed geometry where it was
     inside) and its face's unit normal; texel_m: (m,) a texel's edge length on its triangle; sub_points,
     sub_bary: (m, q, 3) points over its footprint; steps: (m, 2, 3) its ``core.texels.footprint_steps``, for
-    finer points over the footprint; moved, contact: (m,) pushed out / resting on another face;
+    finer points over the footprint; moved: (m,) pushed out; contact: (m,) the share of its footprint on
+    another face in the same plane (no light arrives there);
     settings: with the indirect method chosen; texels_per_chunk: the chunks' size (the rays of a chunk are seeded
     from its first texel)."""
 
@@ -202,12 +203,13 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     tri = np.asarray(scene_triangle, dtype=np.int64)[texels.triangle]
     points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels,
                                     4 * offset_m)
-    contact = face_to_face_contact(scene.triangles, tri, points, 4 * offset_m)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
     points, moved = push_out_of_geometry(caster, scene.triangles, points, normals, reach, offset_m)
     steps = footprint_steps(texels, corner_uv)
     sub_points, sub_bary = _footprint_points(scene.triangles[tri], texels.barycentric, steps,
                                              settings.subtexel_samples_per_edge, points, moved, 4 * offset_m)
+    contact = _contact_share(scene.triangles, tri, points, sub_points, footprint_inside(
+        texels.barycentric, steps, settings.subtexel_samples_per_edge), texels.pixel, width, height, 4 * offset_m)
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
                      sub_bary, steps, moved, contact, settings, TEXELS_PER_CHUNK)
 
@@ -281,9 +283,9 @@ def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> 
     """(height, width, 3) float32 image of the texels' (m, 3) light as outputs store it, contacts black, dilated
     into the padding."""
     light = solution.output_light(light, plan.tri)
-    # Resting on another face, no light gets there; texels pushed out to the visible floor beside a box keep that
-    # light, so bilinear filtering shows no dark rim around the box.
-    light[plan.contact & ~plan.moved] = 0.0
+    # On another face, no light gets there; texels pushed out to the visible floor beside a box keep that light,
+    # so bilinear filtering shows no dark rim around the box.
+    light[~plan.moved] *= 1.0 - plan.contact[~plan.moved, None]
     image = np.zeros((plan.height * plan.width, 3))
     image[plan.pixel] = np.nan_to_num(light)
     image, _ = dilate(image.reshape(plan.height, plan.width, 3), covered, plan.settings.dilation_texels)
@@ -321,6 +323,28 @@ def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndar
     total = weight.sum(axis=1)
     weighted = (weight * light).sum(axis=1) / np.where(total > 0, total, 1.0)
     return np.where(total > 0, weighted, light.mean(axis=1))
+
+
+def _contact_share(scene_triangles_m, tri, points, sub_points, in_triangle, pixel, width, height,
+                   tolerance_m) -> np.ndarray:
+    """(m,) the share of each texel's footprint that lies on another face in the same plane
+    (core.surface_probes.on_another_face), where no light arrives: over its (m, q, 3) footprint points (those
+    ``in_triangle``, where Cycles' samples land) for texels whose point, or a point of a texel next to it in the
+    (height, width) page, lies on one; elsewhere 0 (an overlap that holds no texel's point is left out)."""
+    centre = on_another_face(scene_triangles_m, tri, points, tolerance_m)
+    page = np.zeros((height + 2, width + 2), dtype=bool)
+    page[1:-1, 1:-1].flat[pixel[centre]] = True
+    near = np.zeros((height, width), dtype=bool)
+    for row, column in np.ndindex(3, 3):
+        near |= page[row:row + height, column:column + width]
+    near = np.flatnonzero(near.ravel()[pixel])
+    q = sub_points.shape[1]
+    covered = on_another_face(scene_triangles_m, np.repeat(tri[near], q), sub_points[near].reshape(-1, 3),
+                              tolerance_m).reshape(-1, q)
+    weight = np.where(in_triangle[near].any(axis=1)[:, None], in_triangle[near], True)
+    share = np.zeros(len(points))
+    share[near] = (covered * weight).sum(axis=1) / weight.sum(axis=1)
+    return share
 
 
 def _footprint_points(triangles_m, barycentric, steps, samples_per_edge, points, moved,

@@ -21,6 +21,7 @@ TANGENT_RAYS = 8
 INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
+SMALL_PLANE_TRIANGLES = 8  # on_another_face tests the points of planes with at most this many triangles pairwise
 UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point towards a target on its triangle
 UNCOVER_BISECTIONS = 6  # then halvings of the last step: the free point found lies within 1/256 of the way
 
@@ -73,26 +74,46 @@ def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, poi
     return inside
 
 
-def face_to_face_contact(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, points: np.ndarray,
-                         tolerance_m: float) -> np.ndarray:
-    """(m,) True where a surface point lies on a face resting against an opposite-facing face in the same plane
-    (the bottom of a box standing on a floor). No light reaches it, and Cycles bakes it black; but a sample point
+def on_another_face(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, points: np.ndarray,
+                    tolerance_m: float) -> np.ndarray:
+    """(m,) True where a surface point lies on another face in the same plane: one facing the other way that its
+    face rests against (the bottom of a box standing on a floor), or one facing the same way (a duplicated face,
+    two objects' slabs overlapping). Cycles gives such a point no light, in its bake and in its renders
+    (benchmarks/coplanar_render.py): every ray from it meets the other face at distance zero. A sample point
     lifted off the surface passes through the other face, and one Embree ray cannot tell two coplanar faces
-    apart. Planes are matched by quantised normal and offset (``tolerance_m``), one step per plane, not per
-    texel; each point is then tested against the triangles of the opposite plane that are not behind it by more
-    than CONTACT_BEHIND of the tolerance: two sheets back to back (a decal 3 mm behind a single-sided wall) face
-    open space on both sides and stay lit."""
+    apart, so planes are matched by quantised normal and offset (``tolerance_m``), and each point is tested
+    against the triangles of its plane other than its own, and those of the opposite plane, that are not behind
+    it by more than CONTACT_BEHIND of the tolerance: two sheets back to back (a decal 3 mm behind a single-sided
+    wall) face open space on both sides and stay lit. Points whose planes hold at most SMALL_PLANE_TRIANGLES
+    such triangles (a prop's facets) are tested pair by pair, all at once; the larger planes one at a time."""
     planes, plane_of, normals = triangle_planes(scene_triangles_m, tolerance_m)
     number = {tuple(plane): index for index, plane in enumerate(planes.tolist())}
+    opposite = np.array([number.get(tuple(plane), -1) for plane in (-planes).tolist()], dtype=np.int64)
+    order = np.argsort(plane_of, kind="stable")
+    start = np.searchsorted(plane_of[order], np.arange(len(planes) + 1))
+    count = np.append(np.diff(start), 0)  # the last entry: the triangles of no plane, for opposite = -1
     point_plane = plane_of[point_triangle]
-    contact = np.zeros(len(points), dtype=bool)
-    for plane in np.unique(point_plane):  # one step per plane
-        opposite = number.get(tuple((-planes[plane]).tolist()))
-        if opposite is not None:
-            here = np.flatnonzero(point_plane == plane)
-            contact[here] = inside_any_triangle(points[here], normals[point_triangle[here]],
-                                                scene_triangles_m[plane_of == opposite], CONTACT_BEHIND * tolerance_m)
-    return contact
+    candidates = count[point_plane] + count[opposite[point_plane]]
+    behind_m = CONTACT_BEHIND * tolerance_m
+    covered = np.zeros(len(points), dtype=bool)
+    small = np.flatnonzero((candidates > 1) & (candidates <= SMALL_PLANE_TRIANGLES))
+    for first, stop in budget_ranges(candidates[small], CANDIDATES_PER_CHUNK):
+        point = np.repeat(small[first:stop], candidates[small[first:stop]])
+        plane = point_plane[point]
+        index = concatenated_ranges(candidates[small[first:stop]])
+        mine = index < count[plane]
+        face = order[np.where(mine, start[plane] + index, start[np.maximum(opposite[plane], 0)] + index - count[plane])]
+        hit = _inside_pairs(points[point], normals[point_triangle[point]], scene_triangles_m[face], behind_m)
+        covered[point[hit & (face != point_triangle[point])]] = True
+    large = np.flatnonzero(candidates > SMALL_PLANE_TRIANGLES)
+    large = large[np.argsort(point_plane[large], kind="stable")]
+    planes_of_large, first = np.unique(point_plane[large], return_index=True)
+    for plane, here in zip(planes_of_large.tolist(), np.split(large, first[1:])):  # one step per plane
+        faces = np.sort(np.concatenate([order[start[side]:start[side + 1]] for side in (plane, opposite[plane])
+                                        if side >= 0]))
+        covered[here] = inside_any_triangle(points[here], normals[point_triangle[here]], scene_triangles_m[faces],
+                                            behind_m, np.searchsorted(faces, point_triangle[here]))
+    return covered
 
 
 def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -107,9 +128,11 @@ def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.nda
     return keys[first], plane_of, normals
 
 
-def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
+def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float,
+                        own: np.ndarray | None = None) -> np.ndarray:
     """(p,) whether each point (near the triangles' plane) lies inside any of the (q, 3, 3) triangles whose plane
-    is at most ``behind_m`` behind it along its unit normal (all points share one plane). Points are binned on a
+    is at most ``behind_m`` behind it along its unit normal (all points share one plane), other than the one
+    ``own`` (p,) gives it (an index into ``triangles``; or none). Points are binned on a
     grid in that plane, POINTS_PER_CELL to a cell on average, and each triangle is tested only against the points
     of the cells its bounding box overlaps: the work follows the overlap, not points x triangles."""
     inside = np.zeros(len(points), dtype=bool)
@@ -136,7 +159,10 @@ def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.n
             point = order[np.repeat(cell_start[grid[start:end]], count[start:end]) +
                           concatenated_ranges(count[start:end])]
             pair_triangle = overlaps[np.repeat(triangle[start:end], count[start:end])]
-            inside[point[_inside_pairs(points[point], normals[point], triangles[pair_triangle], behind_m)]] = True
+            hit = _inside_pairs(points[point], normals[point], triangles[pair_triangle], behind_m)
+            if own is not None:
+                hit &= pair_triangle != own[point]
+            inside[point[hit]] = True
     return inside
 
 

@@ -15,7 +15,8 @@ elsewhere (open flat surfaces, where it is smooth and the gather would only add 
   lamps; docs/benchmarks.md, "Update Light").
 - interpolation from the elements around the corner (core.solution.Solution.evaluate): fast and smooth.
 Corners that share a point, normals and material (the corners of one vertex on a flat or smooth-shaded surface)
-share their rays: each such point is evaluated once.
+share their rays: each such point is evaluated once. A corner on another face in the same plane (a duplicated
+face; core.surface_probes.on_another_face) gets no light, as in Cycles (methods "gather" and "auto").
 
 A mesh whose modifiers changed its topology keeps its original corners, which lie on or near the rendered surface
 but on none of its triangles: ``projected_points`` casts two rays along each corner's normal line, one from
@@ -36,6 +37,7 @@ from .parallel import MAX_STEPS_IN_FLIGHT, steps_in_flight
 from .ragged import row_groups
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
+from .surface_probes import on_another_face
 
 NORMAL_STEPS = 1e4  # normals are matched to 1e-4 per component when corners share a point
 EXACT_LIGHTS_PER_HIT = 8  # the lamps brightest where a corner's gather ray lands that get a shadow ray each
@@ -84,6 +86,7 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
             triangle[here])
         part_light[rest] = part.light_at(triangle[rest], moved[first][rest], point[rest], face[rest],
                                          direct_per_point=True)
+    light[:, on_another_face(solution.scene.triangles, triangle, point, 4 * solution.offset_m)] = 0.0
     return light[:, shared] if lightings is not None else light[0, shared]
 
 

@@ -265,6 +265,31 @@ def test_sheets_back_to_back_stay_lit():
     assert np.abs(light - 0.4).max() < 0.02 * 0.4
 
 
+def test_faces_overlapping_in_one_plane_bake_black_and_faces_meeting_at_an_edge_do_not():
+    """Floors A (x from -1 to 0.25 m) and B (x from -0.275 to 1 m) of two objects overlap in the plane z = 0, both
+    facing up to a sun straight above (3 W/m^2), and floor C meets A along x = -1. Cycles bakes and renders the
+    overlap black (every ray from one face meets the other at distance zero: benchmarks/coplanar_render.py), and
+    the rest E / pi. A's texels are 1/16 m across x: columns 12 on lie on the overlap (0), columns up to 10 hold
+    E / pi, the seam with C included; column 11 has 0.4 of its width on the overlap, which Draft's 3 x 3 points
+    per texel measure to within half their spacing (1/6), away from the texels that A's diagonal crosses (those
+    hold the share of their part inside their triangle, as in Cycles)."""
+    a = quad((-1, -1, 0), (0.25, -1, 0), (0.25, 1, 0), (-1, 1, 0))
+    b = quad((-0.275, -1, 0), (1, -1, 0), (1, 1, 0), (-0.275, 1, 0))
+    c = quad((-2, -1, 0), (-1, -1, 0), (-1, 1, 0), (-2, 1, 0))
+    scene = Scene(np.concatenate([a, b, c]), [0, 0, 1, 1, 2, 2], [Material("grey", (0.5,) * 3)] * 3,
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5, light_samples_per_edge=2))
+    columns, rows = 20, 32
+    uv = np.stack([(a[..., 0] + 1) / 1.25, (a[..., 1] + 1) / 2], axis=-1)  # A alone fills the page
+    share = bake_lightmap(solution, np.array([0, 1]), uv, columns, rows,
+                          LightmapSettings(indirect="interpolate")).light[..., 0] / (3.0 / np.pi)
+    assert share[:, 12:] == pytest.approx(0.0, abs=1e-9)
+    assert share[:, :11] == pytest.approx(1.0, rel=1e-6)
+    row_y = (np.arange(rows) + 0.5) / rows * 2 - 1
+    away = np.abs(row_y - (-1 + 2 * (1 - 0.28125) / 1.25)) > 0.1  # from where A's diagonal crosses column 11
+    assert np.abs(share[away, 11] - 0.6).max() <= 1 / 6
+
+
 def test_same_seed_same_lightmap():
     floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
     block = np.concatenate(box_faces((-0.3, -0.3, 0), (0.3, 0.3, 0.6), inward=False))

@@ -41,6 +41,23 @@ def test_corners_of_one_vertex_share_their_rays():
     assert light[0] == pytest.approx(alone[0], rel=1e-12)
 
 
+def test_corners_on_a_face_overlapping_in_their_plane_are_black_and_the_others_lit():
+    """Floors A (x from -1 to 0.25 m) and B (x from -0.25 to 1 m) overlap in the plane z = 0, both facing up to a
+    sun straight above of strength S. Cycles gives the overlap no light (every ray from one face meets the other
+    at distance zero: benchmarks/coplanar_render.py): A's corners at x = 0.25 lie on B and hold 0, those at x = -1
+    (beside C, which meets A along that edge) S / pi."""
+    a = quad((-1, -1, 0), (0.25, -1, 0), (0.25, 1, 0), (-1, 1, 0))
+    b = quad((-0.25, -1, 0), (1, -1, 0), (1, 1, 0), (-0.25, 1, 0))
+    c = quad((-2, -1, 0), (-1, -1, 0), (-1, 1, 0), (-2, 1, 0))
+    scene = Scene(np.concatenate([a, b, c]), [0, 0, 1, 1, 2, 2], [Material("grey", (0.5,) * 3)] * 3,
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=STRENGTH)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    light = corner_light(solution, np.repeat([0, 1], 3), np.tile(np.eye(3), (2, 1)), "gather", 8)[:, 0]
+    x = a.reshape(-1, 3)[:, 0]
+    assert light[x > 0] == pytest.approx(0.0, abs=1e-12)
+    assert light[x < 0] == pytest.approx(STRENGTH / np.pi, rel=1e-6)
+
+
 def _projected(solution, points, normals, centroids, method):
     """Light (irradiance / pi) at corners projected onto the scene's first two triangles within 0.1 m, as the
     add-on lights a modified mesh's corners (projected_points, then corner_light); 0 where none is found."""

@@ -169,11 +169,9 @@ def test_messy_geometry_has_no_leaks_and_no_black_blotches(empty_scene, extensio
     on a visible face (texels hidden behind a decal or inside a cube are not seen, and are left out). Nothing
     falls on the moulding's 9 cm top at 33 cm texels, so there the lightmap is read as a game engine reads it:
     bilinearly, at the surface points under the centres of a fine image (1 cm texels) that Cycles bakes for the
-    top face alone. Cycles bakes coincident duplicate faces black (each shadows its twin), which no render
-    shows: the doubled panel must take the light of the single panel beside it (Cycles' mean there, within
-    5%). Measured: every visible texel within 0.71 of the leak bound (the moulding's points within 0.82, their
-    mean 0.192 against Cycles' 0.188), the doubled panel 0.5% from the single one. Pushing texels out through
-    open shells, as the baker once did, fails it."""
+    top face alone. Cycles bakes and renders coincident duplicate faces black (each shadows its twin:
+    benchmarks/coplanar_render.py), and so must we: the doubled panel's texels hold under 1% of the single
+    panel's light beside it. Pushing texels out through open shells, as the baker once did, fails it."""
     objects = messy_courtyard_corner()
     bake, _, _ = lightmap_bake("DRAFT", tmp_path, texels_per_metre=TEXELS_PER_METRE, lightmap_padding=2)
     page, = bake.lightmaps
@@ -191,9 +189,9 @@ def test_messy_geometry_has_no_leaks_and_no_black_blotches(empty_scene, extensio
             doubled_panel = ours[row, column].mean(axis=0)
         elif name == "Single panel":
             single_panel = 0.5 * (first + second)[row, column].mean(axis=0)
-        if name not in ("Moulding", "Doubled panel"):
+        if name != "Moulding":
             assert_no_leak_or_blotch(name, ours[row, column], first[row, column], second[row, column])
-    assert doubled_panel == pytest.approx(single_panel, rel=0.05)
+    assert (doubled_panel < 0.01 * single_panel).all()
     moulding = objects["Moulding"]
     fine_uv_on_top(moulding)
     size = (8, 512)  # 9 cm x 6 m
