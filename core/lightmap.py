@@ -261,7 +261,7 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
 
 def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict | None = None,
                     groups: dict | None = None) -> Lightmap:
-    """The page from its texels' light (all chunks): the gathered light denoised, contacts black, then dilated
+    """The page from its texels' light (all chunks): the gathered light denoised, contacts dark, then dilated
     into the padding. With ``groups`` (the light groups ``light`` holds, in order), each group's page too, the
     page being their sum (the denoiser's weights are the sum's, so that the groups sum to it)."""
     indirect = light.indirect
@@ -280,8 +280,8 @@ def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict 
 
 
 def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> np.ndarray:
-    """(height, width, 3) float32 image of the texels' (m, 3) light as outputs store it, contacts black, dilated
-    into the padding."""
+    """(height, width, 3) float32 image of the texels' (m, 3) light as outputs store it, the share of each on
+    other faces dark, dilated into the padding."""
     light = solution.output_light(light, plan.tri)
     # On another face, no light gets there; texels pushed out to the visible floor beside a box keep that light,
     # so bilinear filtering shows no dark rim around the box.
@@ -332,8 +332,9 @@ def _contact_share(scene_triangles_m, tri, points, sub_points, in_triangle, pixe
     ``in_triangle``, where Cycles' samples land) for texels whose point, or a point of a texel next to it in the
     (height, width) page, lies on one; elsewhere 0 (an overlap that holds no texel's point is left out)."""
     centre = on_another_face(scene_triangles_m, tri, points, tolerance_m)
-    page = np.zeros((height + 2, width + 2), dtype=bool)
-    page[1:-1, 1:-1].flat[pixel[centre]] = True
+    page = np.zeros(height * width, dtype=bool)
+    page[pixel[centre]] = True
+    page = np.pad(page.reshape(height, width), 1)
     near = np.zeros((height, width), dtype=bool)
     for row, column in np.ndindex(3, 3):
         near |= page[row:row + height, column:column + width]

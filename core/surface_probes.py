@@ -21,6 +21,7 @@ TANGENT_RAYS = 8
 INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
+COINCIDENT_BEHIND = 1e-10  # of the contact tolerance: round-off in a point's position, far under a copy's
 SMALL_PLANE_TRIANGLES = 8  # on_another_face tests the points of planes with at most this many triangles pairwise
 UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point towards a target on its triangle
 UNCOVER_BISECTIONS = 6  # then halvings of the last step: the free point found lies within 1/256 of the way
@@ -82,10 +83,15 @@ def on_another_face(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, p
     (benchmarks/coplanar_render.py): every ray from it meets the other face at distance zero. A sample point
     lifted off the surface passes through the other face, and one Embree ray cannot tell two coplanar faces
     apart, so planes are matched by quantised normal and offset (``tolerance_m``), and each point is tested
-    against the triangles of its plane other than its own, and those of the opposite plane, that are not behind
-    it by more than CONTACT_BEHIND of the tolerance: two sheets back to back (a decal 3 mm behind a single-sided
-    wall) face open space on both sides and stay lit. Points whose planes hold at most SMALL_PLANE_TRIANGLES
-    such triangles (a prop's facets) are tested pair by pair, all at once; the larger planes one at a time."""
+    against the triangles of its plane other than its own and those of the opposite plane. An opposite face
+    counts unless it lies behind the point by more than CONTACT_BEHIND of the tolerance: two sheets back to back
+    (a decal 3 mm behind a single-sided wall) face open space on both sides and stay lit. A face turned the same
+    way counts unless it lies behind the point at all (by more than COINCIDENT_BEHIND of the tolerance, round-off
+    of the point's own position): a copy in exactly the same plane covers it, as a copy a little in front does;
+    of two copies whose vertices differ by single-precision round-off (a column and its copy turned 90 degrees),
+    each covers the other where it lies in front, as it does for Cycles' rays. Points whose planes hold at most
+    SMALL_PLANE_TRIANGLES such triangles (a prop's facets) are tested pair by pair, all at once; the larger planes
+    one at a time."""
     planes, plane_of, normals = triangle_planes(scene_triangles_m, tolerance_m)
     number = {tuple(plane): index for index, plane in enumerate(planes.tolist())}
     opposite = np.array([number.get(tuple(plane), -1) for plane in (-planes).tolist()], dtype=np.int64)
@@ -94,7 +100,6 @@ def on_another_face(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, p
     count = np.append(np.diff(start), 0)  # the last entry: the triangles of no plane, for opposite = -1
     point_plane = plane_of[point_triangle]
     candidates = count[point_plane] + count[opposite[point_plane]]
-    behind_m = CONTACT_BEHIND * tolerance_m
     covered = np.zeros(len(points), dtype=bool)
     small = np.flatnonzero((candidates > 1) & (candidates <= SMALL_PLANE_TRIANGLES))
     for first, stop in budget_ranges(candidates[small], CANDIDATES_PER_CHUNK):
@@ -103,6 +108,7 @@ def on_another_face(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, p
         index = concatenated_ranges(candidates[small[first:stop]])
         mine = index < count[plane]
         face = order[np.where(mine, start[plane] + index, start[np.maximum(opposite[plane], 0)] + index - count[plane])]
+        behind_m = np.where(mine, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
         hit = _inside_pairs(points[point], normals[point_triangle[point]], scene_triangles_m[face], behind_m)
         covered[point[hit & (face != point_triangle[point])]] = True
     large = np.flatnonzero(candidates > SMALL_PLANE_TRIANGLES)
@@ -111,6 +117,7 @@ def on_another_face(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, p
     for plane, here in zip(planes_of_large.tolist(), np.split(large, first[1:])):  # one step per plane
         faces = np.sort(np.concatenate([order[start[side]:start[side + 1]] for side in (plane, opposite[plane])
                                         if side >= 0]))
+        behind_m = np.where(plane_of[faces] == plane, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
         covered[here] = inside_any_triangle(points[here], normals[point_triangle[here]], scene_triangles_m[faces],
                                             behind_m, np.searchsorted(faces, point_triangle[here]))
     return covered
@@ -128,13 +135,13 @@ def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.nda
     return keys[first], plane_of, normals
 
 
-def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float,
-                        own: np.ndarray | None = None) -> np.ndarray:
+def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray,
+                        behind_m: float | np.ndarray, own: np.ndarray | None = None) -> np.ndarray:
     """(p,) whether each point (near the triangles' plane) lies inside any of the (q, 3, 3) triangles whose plane
-    is at most ``behind_m`` behind it along its unit normal (all points share one plane), other than the one
-    ``own`` (p,) gives it (an index into ``triangles``; or none). Points are binned on a
-    grid in that plane, POINTS_PER_CELL to a cell on average, and each triangle is tested only against the points
-    of the cells its bounding box overlaps: the work follows the overlap, not points x triangles."""
+    is at most ``behind_m`` (one for all, or (q,) one per triangle) behind it along its unit normal (all points
+    share one plane), other than the one ``own`` (p,) gives it (an index into ``triangles``; or none). Points are
+    binned on a grid in that plane, POINTS_PER_CELL to a cell on average, and each triangle is tested only against
+    the points of the cells its bounding box overlaps: the work follows the overlap, not points x triangles."""
     inside = np.zeros(len(points), dtype=bool)
     if len(points) == 0 or len(triangles) == 0:
         return inside
@@ -159,7 +166,8 @@ def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.n
             point = order[np.repeat(cell_start[grid[start:end]], count[start:end]) +
                           concatenated_ranges(count[start:end])]
             pair_triangle = overlaps[np.repeat(triangle[start:end], count[start:end])]
-            hit = _inside_pairs(points[point], normals[point], triangles[pair_triangle], behind_m)
+            hit = _inside_pairs(points[point], normals[point], triangles[pair_triangle],
+                                np.broadcast_to(behind_m, len(triangles))[pair_triangle])
             if own is not None:
                 hit &= pair_triangle != own[point]
             inside[point[hit]] = True
@@ -180,9 +188,11 @@ def _bin_points(flat: np.ndarray) -> tuple:
     return low, cell, shape, order, np.searchsorted(point_cell[order], np.arange(shape[0] * shape[1] + 1))
 
 
-def _inside_pairs(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray, behind_m: float) -> np.ndarray:
+def _inside_pairs(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray,
+                  behind_m: float | np.ndarray) -> np.ndarray:
     """(n,) for (point, triangle) pairs: the point projects inside the triangle (barycentrics by the normal
-    equations of its edges), whose plane lies at most ``behind_m`` behind the point along its unit normal."""
+    equations of its edges), whose plane lies at most ``behind_m`` (one, or one per pair) behind the point along
+    its unit normal (measured to the triangle's own plane, which round-off may tilt)."""
     e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
     d11, d12, d22 = (np.einsum("nk,nk->n", e1, e1), np.einsum("nk,nk->n", e1, e2), np.einsum("nk,nk->n", e2, e2))
     det = d11 * d22 - d12 * d12
@@ -190,7 +200,10 @@ def _inside_pairs(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray
     rel = points - triangles[:, 0]
     r1, r2 = np.einsum("nk,nk->n", rel, e1), np.einsum("nk,nk->n", rel, e2)
     u, v = (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
-    height = np.einsum("nk,nk->n", rel, normals)  # > 0: the triangle is behind
+    plane_normal = np.cross(e1, e2)
+    along = np.einsum("nk,nk->n", plane_normal, normals)
+    along = np.where(np.abs(along) > 1e-300, along, np.inf)
+    height = np.einsum("nk,nk->n", rel, plane_normal) / along  # > 0: the triangle's plane is behind
     return (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (height <= behind_m)
 
 

@@ -290,6 +290,21 @@ def test_faces_overlapping_in_one_plane_bake_black_and_faces_meeting_at_an_edge_
     assert np.abs(share[away, 11] - 0.6).max() <= 1 / 6
 
 
+def test_of_two_copies_of_a_floor_a_micrometre_apart_the_upper_is_lit_and_the_lower_black():
+    """Two copies of a floor, one 1 um above the other (as copies whose vertices differ by round-off lie), under
+    a sun straight above (3 W/m^2): the upper copy covers the lower, whose rays all meet it, and holds E / pi; the
+    lower holds 0. Both lie in one plane to the contact tolerance."""
+    lower = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    upper = lower + np.array([0.0, 0.0, 1e-6])
+    scene = Scene(np.concatenate([lower, upper]), [0, 0, 1, 1], [Material("grey", (0.5,) * 3)] * 2,
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5, light_samples_per_edge=2))
+    uv = (lower[..., :2] + 1) / 2
+    for triangles, expected in (([0, 1], 0.0), ([2, 3], 3.0 / np.pi)):
+        light = bake_lightmap(solution, np.array(triangles), uv, 16, 16, LightmapSettings(indirect="interpolate"))
+        assert light.light[light.covered][:, 0] == pytest.approx(expected, abs=1e-6)
+
+
 def test_same_seed_same_lightmap():
     floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
     block = np.concatenate(box_faces((-0.3, -0.3, 0), (0.3, 0.3, 0.6), inward=False))

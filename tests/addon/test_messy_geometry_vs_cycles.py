@@ -11,7 +11,6 @@ of two coincident copies of its faces beside a single one.
 import bmesh
 import bpy
 import numpy as np
-import pytest
 from mathutils import Vector
 
 from blender_setup import add_light, cycles_lightmap_bake, lightmap_bake, triangle_uvs, uv_coverage
