@@ -16,7 +16,7 @@ elsewhere (open flat surfaces, where it is smooth and the gather would only add 
 - interpolation from the elements around the corner (core.solution.Solution.evaluate): fast and smooth.
 Corners that share a point, normals and material (the corners of one vertex on a flat or smooth-shaded surface)
 share their rays: each such point is evaluated once. A corner on another face in the same plane (a duplicated
-face; core.surface_probes.on_another_face) gets no light, as in Cycles (methods "gather" and "auto").
+face; core.surface_probes.on_another_face) gets no light, as in Cycles, by every method.
 
 A mesh whose modifiers changed its topology keeps its original corners, which lie on or near the rendered surface
 but on none of its triangles: ``projected_points`` casts two rays along each corner's normal line, one from
@@ -61,10 +61,12 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
     scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
     barycentric = np.asarray(barycentric, dtype=np.float64)
     parts = [solution] if lightings is None else list(lightings)
-    if method == "interpolate":
-        light = np.stack([part.evaluate(scene_triangle, barycentric, direct_per_point=True) for part in parts])
-        return light if lightings is not None else light[0]
     moved, points, normals = solution.sample_points(scene_triangle, barycentric)
+    if method == "interpolate":
+        light = np.stack([part.light_at(scene_triangle, moved, points, normals, direct_per_point=True)
+                          for part in parts])
+        light[:, on_another_face(solution.scene.triangles, scene_triangle, points, 4 * solution.offset_m)] = 0.0
+        return light if lightings is not None else light[0]
     shading = solution.scene.shading_normals(scene_triangle, moved)
     surface = np.einsum("mc,mck->mk", moved, solution.scene.triangles[scene_triangle])  # before the inset
     first, shared = _distinct(solution, scene_triangle, surface, normals, shading)

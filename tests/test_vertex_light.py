@@ -41,7 +41,8 @@ def test_corners_of_one_vertex_share_their_rays():
     assert light[0] == pytest.approx(alone[0], rel=1e-12)
 
 
-def test_corners_on_a_face_overlapping_in_their_plane_are_black_and_the_others_lit():
+@pytest.mark.parametrize("method", ["interpolate", "gather", "auto"])
+def test_corners_on_a_face_overlapping_in_their_plane_are_black_and_the_others_lit(method):
     """Floors A (x from -1 to 0.25 m) and B (x from -0.25 to 1 m) overlap in the plane z = 0, both facing up to a
     sun straight above of strength S. Cycles gives the overlap no light (every ray from one face meets the other
     at distance zero: benchmarks/coplanar_render.py): A's corners at x = 0.25 lie on B and hold 0, those at x = -1
@@ -52,7 +53,7 @@ def test_corners_on_a_face_overlapping_in_their_plane_are_black_and_the_others_l
     scene = Scene(np.concatenate([a, b, c]), [0, 0, 1, 1, 2, 2], [Material("grey", (0.5,) * 3)] * 3,
                   lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=STRENGTH)])
     solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
-    light = corner_light(solution, np.repeat([0, 1], 3), np.tile(np.eye(3), (2, 1)), "gather", 8)[:, 0]
+    light = corner_light(solution, np.repeat([0, 1], 3), np.tile(np.eye(3), (2, 1)), method, 8)[:, 0]
     x = a.reshape(-1, 3)[:, 0]
     assert light[x > 0] == pytest.approx(0.0, abs=1e-12)
     assert light[x < 0] == pytest.approx(STRENGTH / np.pi, rel=1e-6)
