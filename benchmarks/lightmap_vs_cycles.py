@@ -8,7 +8,9 @@ Bakes a sample scene with each of our quality presets into a lightmap, then bake
 and twice (two seeds) at ``--reference`` samples: their mean is the reference, and their difference measures the
 noise left in it, which is subtracted from every squared error (an unbiased estimate of the error against the
 converged answer). Prints seconds and relative RMSE over the texels Cycles bakes, and for each of our presets the
-Cycles time needed to reach the same error (log-log interpolation along the sample ladder). Left out: the Cornell
+Cycles time needed to reach the same error: by log-log interpolation along the sample ladder, and by Cycles' noise
+law (error ~ samples^-1/2 from the ladder's lowest-error rung, time a fixed cost plus a cost per sample fitted to
+the ladder; ``cycles_seconds_by_noise_law``). Left out: the Cornell
 box's ceiling, whose rim sits 0.5 mm above the light's back face, and linked duplicates past the first (Cycles
 bakes a shared mesh's UV map once), and texels whose centre lies inside closed geometry (a floor under a block:
 Cycles bakes the dark inside, we push the sample out to the visible floor beside it).
@@ -74,7 +76,7 @@ def main() -> None:
     rows = []
     for samples in [int(s) for s in args.samples.split(",")]:
         light, seconds = cycles_lightmap_bake(objects, "Lightmap", size, size, samples, seed=3)
-        rows.append((f"Cycles {samples} spp", seconds, relative_rmse(light, reference, mask, variance)))
+        rows.append((samples, seconds, relative_rmse(light, reference, mask, variance)))
     print(f"{args.scene} lightmap {size} x {size}, {int(mask.sum())} texels compared; reference: 2 x Cycles "
           f"{args.reference} spp ({reference_seconds:.1f} s each), its noise "
           f"{np.sqrt(variance) / reference[mask].mean():.4f} (removed from the errors below)")
@@ -90,18 +92,22 @@ def main() -> None:
     os._exit(0)  # bpy 4.2 crashes at interpreter teardown
 
 
-def print_against_cycles(cycles_rows: list[tuple[str, float, float]], ours: dict[str, tuple[float, float]]) -> None:
-    """The table: Cycles' ladder (name, seconds, error), then each of ours (quality -> (error, seconds)) with the
-    Cycles time at the same error and the ratio of the two times."""
-    cycles = sorted((error, seconds) for _, seconds, error in cycles_rows)
-    print(f"{'bake':24s} {'seconds':>8s} {'rel. RMSE':>10s} {'Cycles s at same error':>24s} {'ratio':>7s}")
-    for name, seconds, error in cycles_rows:
-        print(f"{name:24s} {seconds:8.2f} {error:10.4f}")
+def print_against_cycles(ladder: list[tuple[int, float, float]], ours: dict[str, tuple[float, float]]) -> None:
+    """The table: Cycles' ladder (samples, seconds, error), then each of ours (quality -> (error, seconds)) with
+    the Cycles time at the same error and the ratio of the two times, read two ways: along the ladder
+    (``cycles_seconds_at``) and by Cycles' noise law (``cycles_seconds_by_noise_law``)."""
+    cycles = sorted((error, seconds) for _, seconds, error in ladder)
+    print(f"{'bake':24s} {'seconds':>8s} {'rel. RMSE':>10s} {'Cycles s at same error':>24s} {'ratio':>7s} "
+          f"{'by N^-1/2':>10s} {'ratio':>7s}")
+    for samples, seconds, error in ladder:
+        print(f"{f'Cycles {samples} spp':24s} {seconds:8.2f} {error:10.4f}")
     for quality, (error, seconds) in ours.items():
         matched, extrapolated = cycles_seconds_at(error, cycles)
         ratio = f"{matched / seconds:7.2f}" if matched else "    n/a"
         matched_text = f"{matched:23.2f}{'*' if extrapolated else ' '}" if matched else f"{'(beyond the ladder)':>24s}"
-        print(f"{'radiosity ' + quality:24s} {seconds:8.2f} {error:10.4f} {matched_text} {ratio}")
+        by_law = cycles_seconds_by_noise_law(error, ladder)
+        law_text = f"{by_law:10.2f} {by_law / seconds:7.2f}" if by_law else f"{'n/a':>10s} {'n/a':>7s}"
+        print(f"{'radiosity ' + quality:24s} {seconds:8.2f} {error:10.4f} {matched_text} {ratio} {law_text}")
     print("* extrapolated below the ladder along its two lowest-error points")
 
 
@@ -147,6 +153,19 @@ def cycles_seconds_at(error: float, cycles: list[tuple[float, float]]) -> tuple[
         slope = (seconds[1] - seconds[0]) / (errors[1] - errors[0])
         return float(np.exp(seconds[0] + slope * (np.log(error) - errors[0]))), True
     return None, False
+
+
+def cycles_seconds_by_noise_law(error: float, ladder: list[tuple[int, float, float]]) -> float | None:
+    """Cycles' time at the given error by its noise law: an unbiased Monte Carlo estimate's error falls as
+    samples^-1/2, so from the ladder's lowest-error rung (N samples at error e) the error takes N (e / error)^2
+    samples; Cycles' time is a fixed cost (scene and BVH) plus a cost per sample, both fitted by least squares to
+    the ladder's (samples, seconds). None with fewer than two rungs."""
+    if len(ladder) < 2:
+        return None
+    samples, seconds, errors = (np.array(column, dtype=np.float64) for column in zip(*ladder))
+    per_sample, fixed = np.polyfit(samples, seconds, 1)
+    lowest = errors.argmin()
+    return float(fixed + per_sample * samples[lowest] * (errors[lowest] / error) ** 2)
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/production_scene.py [--triangles 250000,500000,1000000]
         [--qualities draft,medium] [--targets lightmap,vertex_colors] [--compare-triangles 250000]
-        [--compare-density 6] [--samples 4,16,64] [--reference 256] [--cache benchmarks/cache]
+        [--compare-density 6] [--samples 64,128,256] [--reference 256] [--cache benchmarks/cache]
 
 Part 1, scaling: sample_blends/courtyard.py makes the courtyard at each triangle count (same layout, finer
 tessellation and more props); each quality and target is baked by the command line in a child process, as a user
@@ -14,9 +14,9 @@ Part 2, error: at ``--compare-triangles``, each quality bakes a lightmap at ``--
 baked on that UV map: twice at ``--reference`` samples (seeds 1 and 2; their mean is the reference and their
 difference its noise, removed from every squared error; kept in ``--cache`` for the next run on the same scene
 and UV map) and once at each of ``--samples``. The error is the
-relative RMSE over the texels Cycles bakes, as in benchmarks/lightmap_vs_cycles.py (linked duplicates past the
-first are left out: Cycles bakes a shared mesh's UV map once; so are texels pushed out of closed geometry). The
-table is printed twice: over all those texels, and without those on coplanar overlaps, where Cycles bakes two
+relative RMSE over the texels Cycles bakes, and Cycles' time at each of our errors is read along the ladder and by
+Cycles' noise law, as in benchmarks/lightmap_vs_cycles.py (linked duplicates past the first are left out: Cycles
+bakes a shared mesh's UV map once; so are texels pushed out of closed geometry). The table is printed twice: over all those texels, and without those on coplanar overlaps, where Cycles bakes two
 same-facing faces in one plane black (benchmarks/coplanar_overlaps.py).
 """
 from __future__ import annotations
@@ -117,8 +117,7 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
               f"{int(compared.sum())} texels compared on {len(objects)} objects, {which}; reference: 2 x Cycles "
               f"{reference_samples} spp ({reference_seconds:.1f} s each), its noise "
               f"{np.sqrt(variance) / reference[compared].mean():.4f} (removed from the errors below)")
-        rows = [(f"Cycles {spp} spp", seconds, relative_rmse(light, reference, compared, variance))
-                for spp, light, seconds in ladder]
+        rows = [(spp, seconds, relative_rmse(light, reference, compared, variance)) for spp, light, seconds in ladder]
         print_against_cycles(rows, {quality: (relative_rmse(light, reference, compared, variance), seconds)
                                     for quality, (light, seconds) in ours.items()})
     kinds = {}  # objects by name without their number: "column north", "ceiling east", "crate"
@@ -145,7 +144,7 @@ def main() -> None:
     parser.add_argument("--targets", default="lightmap,vertex_colors")
     parser.add_argument("--compare-triangles", type=int, default=250_000, help="0: no comparison with Cycles")
     parser.add_argument("--compare-density", type=float, default=6.0, help="texels per metre")
-    parser.add_argument("--samples", default="4,16,64")
+    parser.add_argument("--samples", default="64,128,256")
     parser.add_argument("--reference", type=int, default=256)
     parser.add_argument("--folder", help="where scenes and bakes go (default: a new temporary folder)")
     parser.add_argument("--cache", default=str(ROOT / "benchmarks" / "cache"),
