@@ -108,8 +108,9 @@ class TexelPlan:
     the barycentrics of its point; points, normals: (m, 3) the point (pushed out of closed geometry where it was
     inside) and its face's unit normal; texel_m: (m,) a texel's edge length on its triangle; sub_points,
     sub_bary: (m, q, 3) points over its footprint; steps: (m, 2, 3) its ``core.texels.footprint_steps``, for
-    finer points over the footprint; moved: (m,) pushed out; contact: (m,) the share of its footprint on
-    another face in the same plane (no light arrives there);
+    finer points over the footprint; moved: (m,) pushed out; contact: (m,) the share of its footprint where no
+    light arrives: on another face in the same plane, or all of it where its point is buried deeper in closed
+    geometry than it can be pushed out (core.surface_probes.push_out_of_geometry);
     settings: with the indirect method chosen; texels_per_chunk: the chunks' size (the rays of a chunk are seeded
     from its first texel)."""
 
@@ -204,12 +205,13 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels,
                                     4 * offset_m)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
-    points, moved = push_out_of_geometry(caster, scene.triangles, points, normals, reach, offset_m)
+    points, moved, buried = push_out_of_geometry(caster, scene.triangles, points, normals, reach, offset_m)
     steps = footprint_steps(texels, corner_uv)
     sub_points, sub_bary = _footprint_points(scene.triangles[tri], texels.barycentric, steps,
                                              settings.subtexel_samples_per_edge, points, moved, 4 * offset_m)
     contact = _contact_share(scene.triangles, tri, points, sub_points, footprint_inside(
         texels.barycentric, steps, settings.subtexel_samples_per_edge), texels.pixel, width, height, 4 * offset_m)
+    contact[buried] = 1.0  # no light gets there: Cycles bakes the inside of the geometry
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
                      sub_bary, steps, moved, contact, settings, TEXELS_PER_CHUNK)
 
@@ -280,11 +282,11 @@ def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict 
 
 
 def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> np.ndarray:
-    """(height, width, 3) float32 image of the texels' (m, 3) light as outputs store it, the share of each on
-    other faces dark, dilated into the padding."""
+    """(height, width, 3) float32 image of the texels' (m, 3) light as outputs store it, the share of each where
+    no light arrives (``plan.contact``) dark, dilated into the padding."""
     light = solution.output_light(light, plan.tri)
-    # On another face, no light gets there; texels pushed out to the visible floor beside a box keep that light,
-    # so bilinear filtering shows no dark rim around the box.
+    # On another face or buried, no light gets there; texels pushed out to the visible floor beside a box keep
+    # that light, so bilinear filtering shows no dark rim around the box.
     light[~plan.moved] *= 1.0 - plan.contact[~plan.moved, None]
     image = np.zeros((plan.height * plan.width, 3))
     image[plan.pixel] = np.nan_to_num(light)

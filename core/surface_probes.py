@@ -19,6 +19,7 @@ POINTS_PER_CELL = 8  # inside_any_triangle's grid
 GRID_CELLS_PER_AXIS = 2048  # at most, so that a long thin row of points does not make a huge grid
 TANGENT_RAYS = 8
 INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
+BURIED_REACHES = 4  # an enclosed point no ray gets out of is buried if all its tangent rays meet a face this near
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
 COINCIDENT_BEHIND = 1e-10  # of the contact tolerance: round-off in a point's position, far under a copy's
@@ -28,7 +29,8 @@ UNCOVER_BISECTIONS = 6  # then halvings of the last step: the free point found l
 
 
 def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,
-                         normals: np.ndarray, reach_m: float, offset_m: float) -> tuple[np.ndarray, np.ndarray]:
+                         normals: np.ndarray, reach_m: float,
+                         offset_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Move points that lie inside closed geometry out through the nearest back face along the surface.
 
     Only points enclosed by geometry (``inside_closed_geometry``) move: a point beside an open shell (a
@@ -36,20 +38,25 @@ def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, point
     would put it in the sunlit space on the other side. Eight rays per enclosed point in the tangent plane,
     ``reach_m`` long (about a texel; a scalar or one length per point), start ``offset_m`` above the surface; the
     nearest one that hits a back face (a face turned away from the ray: the point is behind it) moves the point
-    to just past that face. Returns the points and a (m,) mask of those moved.
+    to just past that face. Returns the points, a (m,) mask of those moved, and one of those buried: enclosed, not
+    moved, and every tangent ray meets a face within BURIED_REACHES reaches (a rail's underside in the middle of a
+    column it runs through; a point beside open shells, whose rays run on to distant single-sided faces, is not).
     """
     out, moved = points.copy(), np.zeros(len(points), dtype=bool)
     enclosed = np.flatnonzero(inside_closed_geometry(caster, scene_triangles_m, points, normals, offset_m))
     origins, directions = tangent_rays(points[enclosed], normals[enclosed], offset_m)
     distance, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
     reach = np.repeat(np.broadcast_to(reach_m, len(points))[enclosed], TANGENT_RAYS)
+    shut = (distance <= BURIED_REACHES * reach).reshape(-1, TANGENT_RAYS).all(axis=1)
     distance = np.where(behind & (distance <= reach), distance, np.inf).reshape(-1, TANGENT_RAYS)
     nearest = distance.argmin(axis=1)
     found = np.isfinite(distance.min(axis=1))
     step = distance[found, nearest[found]] + 2 * offset_m
     out[enclosed[found]] += directions.reshape(-1, TANGENT_RAYS, 3)[found, nearest[found]] * step[:, None]
     moved[enclosed[found]] = True
-    return out, moved
+    buried = np.zeros(len(points), dtype=bool)
+    buried[enclosed[~found & shut]] = True
+    return out, moved, buried
 
 
 def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray,

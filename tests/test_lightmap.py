@@ -701,3 +701,26 @@ def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(mon
         assert ours < 0.97 * reference   # the test can fail: the one-element ceiling is too dark
     else:
         assert ours == pytest.approx(reference, rel=0.03)
+
+
+def test_a_rail_through_a_column_is_black_inside_it():
+    """A single-sided strip facing down (a rail's underside, 0.2 m wide) runs through a closed column 0.3 m across,
+    under a sky of radiance 0.4 and nothing below. Inside the column no light reaches the strip (Cycles bakes it
+    black). Texels deeper inside the column than a texel (1/16 m), too deep to be pushed out to the strip's
+    visible part, are planned as wholly dark (their footprint's dark share is 1) and hold exactly 0; those a
+    metre from the column hold the sky, within 2% (the column's view factor from there)."""
+    strip = quad((-1.5, -0.1, 1), (-1.5, 0.1, 1), (1.5, 0.1, 1), (1.5, -0.1, 1))
+    column = np.concatenate(box_faces((-0.15, -0.15, 0), (0.15, 0.15, 2), inward=False))
+    triangles = np.concatenate([strip, column])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                  world=World((0.4, 0.4, 0.4)))
+    result, layout, corner_uv = lightmap_of(scene, [strip, column])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    plan = plan_texels(solution, np.arange(2), corner_uv[:2], layout.width, layout.height)
+    x = np.einsum("mc,mc->m", plan.barycentric, strip[plan.tri][..., 0])
+    buried = (np.abs(x) < 0.05) & ~plan.moved  # the texels along the strip's edges are pushed out of the column
+    light = result.light.reshape(-1, 3)[plan.pixel, 0]
+    assert triangle_unit_normals(strip)[0, 2] < 0 and np.count_nonzero(buried) >= 2
+    assert plan.contact[buried] == pytest.approx(1.0)
+    assert light[buried] == pytest.approx(0.0, abs=1e-12)
+    assert light[np.abs(x) > 1.2] == pytest.approx(0.4, rel=0.02)
