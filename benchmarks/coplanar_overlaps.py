@@ -1,7 +1,7 @@
 """Texels on faces that another object's face covers in the same plane, facing the same way (two arcades'
 single-sided ceilings running into each other at a corner). Cycles bakes and renders such a pair black: the rays
 from one face hit the other at distance zero (benchmarks/coplanar_render.py). The baker gives them no light either
-(core.surface_probes.on_another_face); the benchmarks give the error against Cycles with and without these texels,
+(core.surface_probes.other_face_test); the benchmarks give the error against Cycles with and without these texels,
 so that the rest of the scene is measured apart from them. A texel counts where any point of its footprint does:
 Cycles' samples spread over the texel's square, so a texel beside such a pair bakes partly black too."""
 from __future__ import annotations

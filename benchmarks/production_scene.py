@@ -16,8 +16,9 @@ difference its noise, removed from every squared error; kept in ``--cache`` for 
 and UV map) and once at each of ``--samples``. The error is the
 relative RMSE over the texels Cycles bakes, and Cycles' time at each of our errors is read along the ladder and by
 Cycles' noise law, as in benchmarks/lightmap_vs_cycles.py (linked duplicates past the first are left out: Cycles
-bakes a shared mesh's UV map once; so are texels pushed out of closed geometry). The table is printed twice: over all those texels, and without those on coplanar overlaps, where Cycles bakes two
-same-facing faces in one plane black (benchmarks/coplanar_overlaps.py).
+bakes a shared mesh's UV map once; so are texels pushed out of closed geometry). The table is printed twice:
+over all those texels, and without those on coplanar overlaps, where Cycles bakes two same-facing faces in one
+plane black (benchmarks/coplanar_overlaps.py).
 """
 from __future__ import annotations
 

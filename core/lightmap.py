@@ -18,7 +18,7 @@ from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts, ga
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import inset, lengths, triangle_areas
-from .surface_probes import inside_closed_geometry, on_another_face, push_out_of_geometry
+from .surface_probes import inside_closed_geometry, other_face_test, push_out_of_geometry
 from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, rasterize, sample_points,
                      subcell_order)
 
@@ -330,10 +330,11 @@ def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndar
 def _contact_share(scene_triangles_m, tri, points, sub_points, in_triangle, pixel, width, height,
                    tolerance_m) -> np.ndarray:
     """(m,) the share of each texel's footprint that lies on another face in the same plane
-    (core.surface_probes.on_another_face), where no light arrives: over its (m, q, 3) footprint points (those
+    (core.surface_probes.other_face_test), where no light arrives: over its (m, q, 3) footprint points (those
     ``in_triangle``, where Cycles' samples land) for texels whose point, or a point of a texel next to it in the
     (height, width) page, lies on one; elsewhere 0 (an overlap that holds no texel's point is left out)."""
-    centre = on_another_face(scene_triangles_m, tri, points, tolerance_m)
+    on_another_face = other_face_test(scene_triangles_m, tolerance_m)
+    centre = on_another_face(tri, points)
     page = np.zeros(height * width, dtype=bool)
     page[pixel[centre]] = True
     page = np.pad(page.reshape(height, width), 1)
@@ -342,8 +343,7 @@ def _contact_share(scene_triangles_m, tri, points, sub_points, in_triangle, pixe
         near |= page[row:row + height, column:column + width]
     near = np.flatnonzero(near.ravel()[pixel])
     q = sub_points.shape[1]
-    covered = on_another_face(scene_triangles_m, np.repeat(tri[near], q), sub_points[near].reshape(-1, 3),
-                              tolerance_m).reshape(-1, q)
+    covered = on_another_face(np.repeat(tri[near], q), sub_points[near].reshape(-1, 3)).reshape(-1, q)
     weight = np.where(in_triangle[near].any(axis=1)[:, None], in_triangle[near], True)
     share = np.zeros(len(points))
     share[near] = (covered * weight).sum(axis=1) / weight.sum(axis=1)

@@ -23,7 +23,7 @@ BURIED_REACHES = 4  # an enclosed point no ray gets out of is buried if all its 
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
 COINCIDENT_BEHIND = 1e-10  # of the contact tolerance: round-off in a point's position, far under a copy's
-SMALL_PLANE_TRIANGLES = 8  # on_another_face tests the points of planes with at most this many triangles pairwise
+SMALL_PLANE_TRIANGLES = 8  # other_face_test tests the points of planes with at most this many triangles pairwise
 UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point towards a target on its triangle
 UNCOVER_BISECTIONS = 6  # then halvings of the last step: the free point found lies within 1/256 of the way
 
@@ -82,12 +82,13 @@ def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, poi
     return inside
 
 
-def on_another_face(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, points: np.ndarray,
-                    tolerance_m: float) -> np.ndarray:
-    """(m,) True where a surface point lies on another face in the same plane: one facing the other way that its
-    face rests against (the bottom of a box standing on a floor), or one facing the same way (a duplicated face,
-    two objects' slabs overlapping). Cycles gives such a point no light, in its bake and in its renders
-    (benchmarks/coplanar_render.py): every ray from it meets the other face at distance zero. A sample point
+def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float):
+    """``on_another_face(point_triangle, points)``: (m,) True where surface points, (m, 3) on the given scene
+    triangles, lie on another face in the same plane; the scene's planes are matched once, for any number of
+    calls. The other face faces the other way and the point's face rests against it (the bottom of a box standing
+    on a floor), or it faces the same way (a duplicated face, two objects' slabs overlapping). Cycles gives such
+    a point no light, in its bake and in its renders (benchmarks/coplanar_render.py): every ray from it meets the
+    other face at distance zero. A sample point
     lifted off the surface passes through the other face, and one Embree ray cannot tell two coplanar faces
     apart, so planes are matched by quantised normal and offset (``tolerance_m``), and each point is tested
     against the triangles of its plane other than its own and those of the opposite plane. An opposite face
@@ -105,29 +106,35 @@ def on_another_face(scene_triangles_m: np.ndarray, point_triangle: np.ndarray, p
     order = np.argsort(plane_of, kind="stable")
     start = np.searchsorted(plane_of[order], np.arange(len(planes) + 1))
     count = np.append(np.diff(start), 0)  # the last entry: the triangles of no plane, for opposite = -1
-    point_plane = plane_of[point_triangle]
-    candidates = count[point_plane] + count[opposite[point_plane]]
-    covered = np.zeros(len(points), dtype=bool)
-    small = np.flatnonzero((candidates > 1) & (candidates <= SMALL_PLANE_TRIANGLES))
-    for first, stop in budget_ranges(candidates[small], CANDIDATES_PER_CHUNK):
-        point = np.repeat(small[first:stop], candidates[small[first:stop]])
-        plane = point_plane[point]
-        index = concatenated_ranges(candidates[small[first:stop]])
-        mine = index < count[plane]
-        face = order[np.where(mine, start[plane] + index, start[np.maximum(opposite[plane], 0)] + index - count[plane])]
-        behind_m = np.where(mine, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
-        hit = _inside_pairs(points[point], normals[point_triangle[point]], scene_triangles_m[face], behind_m)
-        covered[point[hit & (face != point_triangle[point])]] = True
-    large = np.flatnonzero(candidates > SMALL_PLANE_TRIANGLES)
-    large = large[np.argsort(point_plane[large], kind="stable")]
-    planes_of_large, first = np.unique(point_plane[large], return_index=True)
-    for plane, here in zip(planes_of_large.tolist(), np.split(large, first[1:])):  # one step per plane
-        faces = np.sort(np.concatenate([order[start[side]:start[side + 1]] for side in (plane, opposite[plane])
-                                        if side >= 0]))
-        behind_m = np.where(plane_of[faces] == plane, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
-        covered[here] = inside_any_triangle(points[here], normals[point_triangle[here]], scene_triangles_m[faces],
-                                            behind_m, np.searchsorted(faces, point_triangle[here]))
-    return covered
+
+    def on_another_face(point_triangle: np.ndarray, points: np.ndarray) -> np.ndarray:
+        point_plane = plane_of[point_triangle]
+        candidates = count[point_plane] + count[opposite[point_plane]]
+        covered = np.zeros(len(points), dtype=bool)
+        small = np.flatnonzero((candidates > 1) & (candidates <= SMALL_PLANE_TRIANGLES))
+        for first, stop in budget_ranges(candidates[small], CANDIDATES_PER_CHUNK):
+            point = np.repeat(small[first:stop], candidates[small[first:stop]])
+            plane = point_plane[point]
+            index = concatenated_ranges(candidates[small[first:stop]])
+            mine = index < count[plane]
+            face = order[np.where(mine, start[plane] + index,
+                                  start[np.maximum(opposite[plane], 0)] + index - count[plane])]
+            behind_m = np.where(mine, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
+            hit = _inside_pairs(points[point], normals[point_triangle[point]], scene_triangles_m[face], behind_m)
+            covered[point[hit & (face != point_triangle[point])]] = True
+        large = np.flatnonzero(candidates > SMALL_PLANE_TRIANGLES)
+        large = large[np.argsort(point_plane[large], kind="stable")]
+        planes_of_large, first = np.unique(point_plane[large], return_index=True)
+        for plane, here in zip(planes_of_large.tolist(), np.split(large, first[1:])):  # one step per plane
+            faces = np.sort(np.concatenate([order[start[side]:start[side + 1]] for side in (plane, opposite[plane])
+                                            if side >= 0]))
+            behind_m = np.where(plane_of[faces] == plane, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
+            covered[here] = inside_any_triangle(points[here], normals[point_triangle[here]],
+                                                scene_triangles_m[faces], behind_m,
+                                                np.searchsorted(faces, point_triangle[here]))
+        return covered
+
+    return on_another_face
 
 
 def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
