@@ -18,7 +18,7 @@ from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts, ga
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import inset, lengths, triangle_areas
-from .surface_probes import inside_closed_geometry, other_face_test, push_out_of_geometry
+from .surface_probes import covered_within, inside_closed_geometry, other_face_test, push_out_of_geometry
 from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, rasterize, sample_points,
                      subcell_order)
 
@@ -108,9 +108,10 @@ class TexelPlan:
     the barycentrics of its point; points, normals: (m, 3) the point (pushed out of closed geometry where it was
     inside) and its face's unit normal; texel_m: (m,) a texel's edge length on its triangle; sub_points,
     sub_bary: (m, q, 3) points over its footprint; steps: (m, 2, 3) its ``core.texels.footprint_steps``, for
-    finer points over the footprint; moved: (m,) pushed out; contact: (m,) the share of its footprint where no
-    light arrives: on another face in the same plane, or all of it where its point is buried deeper in closed
-    geometry than it can be pushed out (core.surface_probes.push_out_of_geometry);
+    finer points over the footprint; moved: (m,) pushed out; dark: (m, q) footprint points no light reaches (on
+    another face in the same plane, or under a face nearer than the ray offset), left out of the texel's means;
+    contact: (m,) the share of its footprint they cover (of its points in its triangle), or all of it where its
+    point is buried deeper in closed geometry than it can be pushed out (core.surface_probes.push_out_of_geometry);
     settings: with the indirect method chosen; texels_per_chunk: the chunks' size (the rays of a chunk are seeded
     from its first texel)."""
 
@@ -126,6 +127,7 @@ class TexelPlan:
     sub_bary: np.ndarray
     steps: np.ndarray
     moved: np.ndarray
+    dark: np.ndarray
     contact: np.ndarray
     settings: LightmapSettings
     texels_per_chunk: int
@@ -209,11 +211,16 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     steps = footprint_steps(texels, corner_uv)
     sub_points, sub_bary = _footprint_points(scene.triangles[tri], texels.barycentric, steps,
                                              settings.subtexel_samples_per_edge, points, moved, 4 * offset_m)
-    contact = _contact_share(scene.triangles, tri, points, sub_points, footprint_inside(
-        texels.barycentric, steps, settings.subtexel_samples_per_edge), texels.pixel, width, height, 4 * offset_m)
+    m, q = sub_points.shape[:2]
+    dark = _on_another_face(other_face_test(scene.triangles, 4 * offset_m), tri, points, sub_points, texels.pixel,
+                            width, height)
+    dark |= covered_within(caster, sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0), offset_m).reshape(m, q)
+    in_triangle = footprint_inside(texels.barycentric, steps, settings.subtexel_samples_per_edge)
+    weight = np.where(in_triangle.any(axis=1)[:, None], in_triangle, True)  # where Cycles' samples land
+    contact = (dark * weight).sum(axis=1) / weight.sum(axis=1)
     contact[buried] = 1.0  # no light gets there: Cycles bakes the inside of the geometry
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
-                     sub_bary, steps, moved, contact, settings, TEXELS_PER_CHUNK)
+                     sub_bary, steps, moved, dark, contact, settings, TEXELS_PER_CHUNK)
 
 
 def with_indirect_method(plan: TexelPlan, solution) -> TexelPlan:
@@ -242,11 +249,13 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     gather = settings.indirect == "gather"  # its rays bring the world's light
     lightings = list(groups.values()) if groups else [solution]
     in_triangle = footprint_inside(barycentric, plan.steps[chunk], settings.subtexel_samples_per_edge)
-    direct_light, weight = _direct_light(lightings, plan, chunk, shading, in_triangle, world=not gather)
+    reached = in_triangle & ~plan.dark[chunk]  # a texel wholly dark keeps its points: its light is zeroed
+    reached = np.where(reached.any(axis=1)[:, None], reached, in_triangle)
+    direct_light, weight = _direct_light(lightings, plan, chunk, shading, reached, world=not gather)
     direct = np.stack([_footprint_mean(scene, light, tri, sub_bary, weight) for light in direct_light])
     timer.lap("direct")
     if gather:
-        indirect, variance = final_gather_parts(lightings, solution.caster, _in_turn(sub_points, in_triangle),
+        indirect, variance = final_gather_parts(lightings, solution.caster, _in_turn(sub_points, reached),
                                                 scene.shading_normals(tri, barycentric),
                                                 settings.gather_samples_per_edge, solution.offset_m,
                                                 settings.seed + first_texel, face_normals=normals,
@@ -255,7 +264,7 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     else:
         buried = _inside(solution, points, normals, sub_points)
         indirect = np.stack([_footprint_mean(scene, np.where(buried[..., None], 0.0, lit.indirect_light(
-            points, normals, tri, barycentric)[:, None, :]), tri, sub_bary, in_triangle) for lit in lightings])
+            points, normals, tri, barycentric)[:, None, :]), tri, sub_bary, reached) for lit in lightings])
         variance = np.zeros_like(indirect[0])
     timer.lap("indirect")
     return TexelLight(direct, indirect, variance)
@@ -302,12 +311,12 @@ def _inside(solution, points, normals, sub_points) -> np.ndarray:
                                   np.repeat(normals, q, axis=0), solution.offset_m).reshape(m, q)
 
 
-def _in_turn(sub_points: np.ndarray, in_triangle: np.ndarray) -> np.ndarray:
-    """(m, q, 3) each texel's footprint points with those outside its triangle (``in_triangle`` (m, q) False)
-    replaced by those inside, in turn: the gather's rays start only where Cycles' samples land."""
-    m, q = in_triangle.shape
-    inside_first = np.argsort(~in_triangle, axis=1, kind="stable")
-    count = np.maximum(in_triangle.sum(axis=1), 1)
+def _in_turn(sub_points: np.ndarray, reached: np.ndarray) -> np.ndarray:
+    """(m, q, 3) each texel's footprint points with those not ``reached`` ((m, q) False: outside its triangle, or
+    dark) replaced by the others, in turn: the gather's rays start only where Cycles' samples land and see light."""
+    m, q = reached.shape
+    inside_first = np.argsort(~reached, axis=1, kind="stable")
+    count = np.maximum(reached.sum(axis=1), 1)
     slot = inside_first[np.arange(m)[:, None], np.arange(q) % count[:, None]]
     return sub_points[np.arange(m)[:, None], slot]
 
@@ -327,13 +336,11 @@ def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndar
     return np.where(total > 0, weighted, light.mean(axis=1))
 
 
-def _contact_share(scene_triangles_m, tri, points, sub_points, in_triangle, pixel, width, height,
-                   tolerance_m) -> np.ndarray:
-    """(m,) the share of each texel's footprint that lies on another face in the same plane
-    (core.surface_probes.other_face_test), where no light arrives: over its (m, q, 3) footprint points (those
-    ``in_triangle``, where Cycles' samples land) for texels whose point, or a point of a texel next to it in the
-    (height, width) page, lies on one; elsewhere 0 (an overlap that holds no texel's point is left out)."""
-    on_another_face = other_face_test(scene_triangles_m, tolerance_m)
+def _on_another_face(on_another_face, tri, points, sub_points, pixel, width, height) -> np.ndarray:
+    """(m, q) which of the texels' (m, q, 3) footprint points lie on another face in the same plane
+    (core.surface_probes.other_face_test's ``on_another_face``), where no light arrives: tested for texels whose
+    point, or a point of a texel next to it in the (height, width) page, lies on one; elsewhere none (an overlap
+    that holds no texel's point is left out)."""
     centre = on_another_face(tri, points)
     page = np.zeros(height * width, dtype=bool)
     page[pixel[centre]] = True
@@ -343,11 +350,9 @@ def _contact_share(scene_triangles_m, tri, points, sub_points, in_triangle, pixe
         near |= page[row:row + height, column:column + width]
     near = np.flatnonzero(near.ravel()[pixel])
     q = sub_points.shape[1]
-    covered = on_another_face(np.repeat(tri[near], q), sub_points[near].reshape(-1, 3)).reshape(-1, q)
-    weight = np.where(in_triangle[near].any(axis=1)[:, None], in_triangle[near], True)
-    share = np.zeros(len(points))
-    share[near] = (covered * weight).sum(axis=1) / weight.sum(axis=1)
-    return share
+    covered = np.zeros(sub_points.shape[:2], dtype=bool)
+    covered[near] = on_another_face(np.repeat(tri[near], q), sub_points[near].reshape(-1, 3)).reshape(-1, q)
+    return covered
 
 
 def _footprint_points(triangles_m, barycentric, steps, samples_per_edge, points, moved,
@@ -362,18 +367,18 @@ def _footprint_points(triangles_m, barycentric, steps, samples_per_edge, points,
     return sub_points, bary
 
 
-def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.ndarray, in_triangle: np.ndarray,
+def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.ndarray, reached: np.ndarray,
                   world: bool) -> tuple[np.ndarray, np.ndarray]:
     """(g, m, q, 3) direct light of each lighting (the solution, or one per light group) at the q footprint points
     of the chunk's texels with their (m, q, 3) unit shading normals, and (m, q) each point's weight in its texel's
-    mean: whether it lies in its triangle (``in_triangle``), or the share of its finer points that do where they
-    replace it. With 1/k the shadow rays per edge at each (rounded up); the world's only if ``world``. Texels on a
-    shadow's edge, where the points' light spreads over more than PENUMBRA_SPREAD of the brightest, are lit again
-    from p x p points spread over each point's cell of the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in
-    place of the first (an estimate independent of the test that chose the texel, so the choice adds no bias): a
-    penumbra is where a few rays per point are noisiest, and where a sharp shadow's edge crosses the texel, a few
-    fixed points measure its covered share only to 1/k.
-    The edges are found on the lightings' sum, so that light groups sum to the ordinary bake."""
+    mean: whether it lies in its triangle where light reaches it (``reached``), or the share of its finer points
+    in the triangle where they replace it (none if it is dark, ``plan.dark``). With 1/k the shadow rays per edge at
+    each (rounded up); the world's only if ``world``. Texels on a shadow's edge, where the points' light spreads
+    over more than PENUMBRA_SPREAD of the brightest, are lit again from p x p points spread over each point's cell
+    of the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in place of the first (an estimate independent of
+    the test that chose the texel, so the choice adds no bias): a penumbra is where a few rays per point are
+    noisiest, and where a sharp shadow's edge crosses the texel, a few fixed points measure its covered share only
+    to 1/k. The edges are found on the lightings' sum, so that light groups sum to the ordinary bake."""
     k = plan.settings.subtexel_samples_per_edge
     tri, barycentric = plan.tri[chunk], plan.barycentric[chunk]
     light_samples = -(-lightings[0].direct.samples_per_edge // k)
@@ -386,7 +391,7 @@ def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.nd
             world=world).reshape(len(points), per_texel, 3) for solution in lightings])
 
     light = lit(plan.sub_points[chunk], shading, slice(None), k * k * chunk.start)
-    weight = in_triangle.astype(np.float64)
+    weight = reached.astype(np.float64)
     if light_samples < PENUMBRA_SAMPLES_PER_EDGE:
         edge = _shadow_edge_texels(plan, chunk, np.nan_to_num(light).sum(axis=(0, 3)))
         points, normals = _finer_footprint_points(lightings[0], plan, chunk, edge, shading)
@@ -397,7 +402,7 @@ def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.nd
         finer_in = footprint_inside(barycentric[edge], plan.steps[chunk][edge], k * split)[:, subcell_order(k, split)]
         counted = np.where(finer_in.any(axis=2, keepdims=True), finer_in, True)[None, ..., None]
         light[:, edge] = (cells * counted).sum(axis=3) / counted.sum(axis=3)  # a cell wholly outside weighs 0
-        weight[edge] = finer_in.mean(axis=2)
+        weight[edge] = finer_in.mean(axis=2) * ~plan.dark[chunk][edge]
     return light, weight
 
 

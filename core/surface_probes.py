@@ -20,6 +20,7 @@ GRID_CELLS_PER_AXIS = 2048  # at most, so that a long thin row of points does no
 TANGENT_RAYS = 8
 INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
 BURIED_REACHES = 4  # an enclosed point no ray gets out of is buried if all its tangent rays meet a face this near
+COVER_ROUND_OFF = 1 / 16  # of covered_within's depth: a face nearer the point than this is its own plane's
 PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
 COINCIDENT_BEHIND = 1e-10  # of the contact tolerance: round-off in a point's position, far under a copy's
@@ -80,6 +81,17 @@ def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, poi
     backs = 1 + tangent_behind.reshape(-1, TANGENT_RAYS).sum(axis=1)
     inside[candidates] = all_hit & (backs >= INSIDE_BACK_FACES)
     return inside
+
+
+def covered_within(caster: RayCaster, points: np.ndarray, normals: np.ndarray, depth_m: float) -> np.ndarray:
+    """(m,) True where another face lies over a surface point, less than ``depth_m`` above it along its unit
+    normal (and more than COVER_ROUND_OFF of that above): the middle of a column's facet inside a copy of the
+    column turned half a facet, the floor under a rug lying a hair above it. Rays that leave the point
+    ``depth_m`` above the surface (the ray offset) start beyond such a face and miss it, where Cycles' rays, which
+    start on the surface, meet it: the point is dark. One ray per point, cast down the normal from ``depth_m``
+    above it and stopped just short of the point's own face."""
+    origins = points + depth_m * normals
+    return caster.occluded(origins, -normals, np.full(len(points), (1.0 - COVER_ROUND_OFF) * depth_m))
 
 
 def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float):

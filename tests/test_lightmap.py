@@ -724,3 +724,34 @@ def test_a_rail_through_a_column_is_black_inside_it():
     assert plan.contact[buried] == pytest.approx(1.0)
     assert light[buried] == pytest.approx(0.0, abs=1e-12)
     assert light[np.abs(x) > 1.2] == pytest.approx(0.4, rel=0.02)
+
+
+@pytest.mark.parametrize("facing", ["down", "up"])
+def test_a_floor_under_a_sheet_nearer_than_the_ray_offset_is_black(facing):
+    """A floor in a level 1 km across (a far marker sets the scene's size, so the ray offset is 2 cm) under a sun
+    straight above (3 W/m^2), with a sheet 1 m square lying over its middle a little tilted: 0.2 to 0.8 of the
+    ray offset above the floor, facing down (a single-sided shell) or up. Cycles' rays start on the floor and
+    meet the sheet, so the floor under it is black; rays that start an offset above the floor would pass over
+    the sheet and bring the full sun. Texels wholly under the sheet hold 0 (to 1% of the sun's E / pi), those
+    0.2 m beyond it E / pi = 3 / pi within 1% (the sheet's dark underside at grazing angles)."""
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    marker = quad((999.9, -0.05, 0), (1000, -0.05, 0), (1000, 0.05, 0), (999.9, 0.05, 0))
+    sun = SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)
+    offset = ray_offset_m(Scene(np.concatenate([floor, marker]), np.zeros(4, int), [Material("grey", (0.5,) * 3)],
+                                lights=[sun]))
+    low, high = 0.2 * offset, 0.8 * offset
+    corners = [(-0.5, -0.5, low), (0.5, -0.5, high), (0.5, 0.5, high), (-0.5, 0.5, low)]
+    sheet = quad(*(corners if facing == "up" else corners[::-1]))
+    triangles = np.concatenate([floor, marker, sheet])
+    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)], lights=[sun])
+    assert ray_offset_m(scene) == pytest.approx(offset) and offset > 0.019
+    assert abs(triangle_unit_normals(sheet)[0, 0]) > 0.01  # not the floor's plane: the coplanar test cannot see it
+    result, layout, corner_uv = lightmap_of(scene, [floor, marker, sheet])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    plan = plan_texels(solution, np.arange(2), corner_uv[:2], layout.width, layout.height)
+    light = result.light.reshape(-1, 3)[plan.pixel, 0]
+    x, y = (np.einsum("mc,mc->m", plan.barycentric, floor[plan.tri][..., axis]) for axis in (0, 1))
+    under, beyond = np.maximum(np.abs(x), np.abs(y)) < 0.4, np.maximum(np.abs(x), np.abs(y)) > 0.7
+    assert np.count_nonzero(under) > 100 and np.count_nonzero(beyond) > 100
+    assert light[under] == pytest.approx(0.0, abs=0.01 * 3 / np.pi)
+    assert light[beyond] == pytest.approx(3 / np.pi, rel=0.01)
