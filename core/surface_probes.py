@@ -95,23 +95,21 @@ def covered_within(caster: RayCaster, points: np.ndarray, normals: np.ndarray, d
 
 
 def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float):
-    """``on_another_face(point_triangle, points)``: (m,) True where surface points, (m, 3) on the given scene
-    triangles, lie on another face in the same plane; the scene's planes are matched once, for any number of
-    calls. The other face faces the other way and the point's face rests against it (the bottom of a box standing
-    on a floor), or it faces the same way (a duplicated face, two objects' slabs overlapping). Cycles gives such
-    a point no light, in its bake and in its renders (benchmarks/coplanar_render.py): every ray from it meets the
-    other face at distance zero. A sample point
-    lifted off the surface passes through the other face, and one Embree ray cannot tell two coplanar faces
-    apart, so planes are matched by quantised normal and offset (``tolerance_m``), and each point is tested
-    against the triangles of its plane other than its own and those of the opposite plane. An opposite face
-    counts unless it lies behind the point by more than CONTACT_BEHIND of the tolerance: two sheets back to back
-    (a decal 3 mm behind a single-sided wall) face open space on both sides and stay lit. A face turned the same
-    way counts unless it lies behind the point at all (by more than COINCIDENT_BEHIND of the tolerance, round-off
-    of the point's own position): a copy in exactly the same plane covers it, as a copy a little in front does;
-    of two copies whose vertices differ by single-precision round-off (a column and its copy turned 90 degrees),
-    each covers the other where it lies in front, as it does for Cycles' rays. Points whose planes hold at most
-    SMALL_PLANE_TRIANGLES such triangles (a prop's facets) are tested pair by pair, all at once; the larger planes
-    one at a time."""
+    """``on_another_face(point_triangle, points)``: (m,) True where surface points, (m, 3) on the given scene triangles,
+    lie on another face in the same plane; the scene's planes are matched once, for any number of calls. The other face
+    faces the other way and the point's face rests against it (the bottom of a box standing on a floor), or it faces the
+    same way (a duplicated face, two objects' slabs overlapping). Cycles gives such a point no light, in its bake and in
+    its renders (benchmarks/coplanar_render.py): every ray from it meets the other face at distance zero. A sample point
+    lifted off the surface passes through the other face, and one Embree ray cannot tell two coplanar faces apart, so
+    planes are matched by quantised normal and offset (``tolerance_m``), and each point is tested against the triangles
+    of its plane other than its own and those of the opposite plane. An opposite face counts unless it lies behind the
+    point by more than CONTACT_BEHIND of the tolerance: two sheets back to back (a decal 3 mm behind a single-sided
+    wall) face open space on both sides and stay lit. A face turned the same way counts unless it lies behind the point
+    at all (by more than COINCIDENT_BEHIND of the tolerance, round-off of the point's own position): a copy in exactly
+    the same plane covers it, as a copy a little in front does; of two copies whose vertices differ by single-precision
+    round-off (a column and its copy turned 90 degrees), each covers the other where it lies in front, as it does for
+    Cycles' rays. Points whose planes hold at most SMALL_PLANE_TRIANGLES such triangles (a prop's facets) are tested
+    pair by pair, all at once; the larger planes one at a time."""
     planes, plane_of, normals = triangle_planes(scene_triangles_m, tolerance_m)
     number = {tuple(plane): index for index, plane in enumerate(planes.tolist())}
     opposite = np.array([number.get(tuple(plane), -1) for plane in (-planes).tolist()], dtype=np.int64)
