@@ -87,7 +87,8 @@ def main() -> None:
               f"| {rate / 1e6:.2f} | {rate / threaded:.0%} | {r['peak_rss_mb']:.0f} | {r['residual']:.4f} |")
     base = rows[0]
     print("\nScaling against the smallest size: " + ", ".join(
-        f"{r['elements'] / base['elements']:.0f}x elements -> {r['seconds'] / base['seconds']:.1f}x time" for r in rows[1:]))
+        f"{r['elements'] / base['elements']:.0f}x elements -> {r['seconds'] / base['seconds']:.1f}x time"
+        for r in rows[1:]))
 
 
 if __name__ == "__main__":

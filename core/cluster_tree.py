@@ -1,16 +1,16 @@
 """A binary tree of clusters over the elements: the source side of hierarchical radiosity with clustering
 (Hanrahan, Salzman & Aupperle 1991; Smits, Arvo & Greenberg 1994; Sillion 1995).
 
-Built top-down by median splits of the elements' centroids along each node's longest axis, so that every node
-holds a contiguous range ``order[start:end]`` of the elements: sums over a node (its exposed area, its radiated
-power) are differences of prefix sums, O(1) per node and vectorised over all nodes at once. A node's surfaces are split by the direction class of their outward normals (core.geometry.direction_classes:
-six classes, one per axis and sign), and its radiosity is kept per class: a receiver under a sunlit slab gets the
-mean of the slab's underside, not of its top. A node stands for its elements when seen from far enough away
-(core.links); each of its classes is then cut, in tree order, into ``NODE_SAMPLES`` parts of equal exposed area,
-each seen from the receiver at its area-weighted centroid and mean normal (a midpoint rule, second-order
-accurate, where one element's point in each part would be first-order) and
-tested for visibility with one shadow ray to the element sample at its middle: a node of a hundred elements costs
-as few shadow rays as one element.
+Built top-down by median splits of the elements' centroids along each node's longest axis, so that every node holds
+a contiguous range ``order[start:end]`` of the elements: sums over a node (its exposed area, its radiated power) are
+taken from the leaves up, one step per tree level, vectorised over the nodes of a level. A node's surfaces are split
+by the direction class of their outward normals (core.geometry.direction_classes: six classes, one per axis and
+sign), and its radiosity is kept per class: a receiver under a sunlit slab gets the mean of the slab's underside,
+not of its top. A node stands for its elements when seen from far enough away (core.links); each of its classes is
+then cut, in tree order, into ``NODE_SAMPLES`` parts of equal exposed area, each seen from the receiver at its
+area-weighted centroid and mean normal (a midpoint rule, second-order accurate, where one element's point in each
+part would be first-order) and tested for visibility with one shadow ray to the element sample at its middle: a node
+of a hundred elements costs as few shadow rays as one element.
 """
 from __future__ import annotations
 
@@ -30,11 +30,11 @@ NODE_SAMPLES = 4
 class ClusterTree:
     """Nodes of the tree (root 0): element range ``order[start:end]``, children ``left`` / ``right`` (-1 for
     leaves), bounding box ``low`` / ``high`` (N, 3), m; ``depth`` (N,) below the root; ``element`` (N,) the element
-    of a leaf (-1 for internal nodes); ``leaf_of`` (n,) the leaf node of each element; ``side_class`` (n, 2) the direction class
-    of each element side; ``class_exposed`` (N, 6) each node's exposed area per class, m^2; per node, class and
-    part of equal area (N, 6, NODE_SAMPLES): ``sample`` the flat index (element x 2 + side) x SAMPLES + k of the
-    element sample at the part's middle, ``centroid`` and ``normal`` (..., 3) the part's area-weighted centroid
-    and unit mean normal (float32)."""
+    of a leaf (-1 for internal nodes); ``leaf_of`` (n,) the leaf node of each element; ``side_class`` (n, 2) the
+    direction class of each element side; ``class_exposed`` (N, 6) each node's exposed area per class, m^2; per
+    node, class and part of equal area (N, 6, NODE_SAMPLES): ``sample`` the flat index (element x 2 + side) x
+    SAMPLES + k of the element sample at the part's middle, ``centroid`` and ``normal`` (..., 3) the part's
+    area-weighted centroid and unit mean normal (float32)."""
 
     order: np.ndarray
     start: np.ndarray

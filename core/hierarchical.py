@@ -10,11 +10,11 @@
    cluster tree (core.links), with form factors and visibility; its direct light is the mean over its exposed
    samples.
 3. Radiosity is found by Jacobi iteration of B = E + rho (H_direct + sum_links F B_node) (Cohen & Wallace 1993,
-   ch. 5), where B_node is a node's mean radiosity per side over its exposed area, a prefix-sum difference
+   ch. 5), where B_node is a node's mean radiosity per side over its exposed area, summed from the leaves up
    (core.cluster_tree). It stops when the change in radiated power falls below the residual threshold, and the
    receivers' own irradiance has settled to that threshold over most of the lit area; the light the remaining
-   iterations would add is the ambient term (Cohen et al. 1988), a geometric series whose ratio is the decay of
-   that change from one iteration to the next.
+   iterations would add is the ambient term (Cohen et al. 1988), a geometric series whose ratio is the decay of that
+   change from one iteration to the next.
 
 Memory: the links (16 bytes each, a few hundred per live side), the tree (O(n)) and per-element arrays: nothing is
 O(n^2), and nothing depends on the input triangle count beyond the pieces.

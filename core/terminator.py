@@ -1,14 +1,14 @@
 """Shadow rays from smooth-shaded triangles start on the smooth surface the shading normals imply, as in Cycles.
 
-A low-poly sphere shaded smooth has shading normals that face a light the flat triangle itself turns away from;
-a shadow ray from the flat triangle then hits the mesh's own facets, and the terminator turns into a jagged
-staircase. Cycles (kernel/light/sample.h: shadow_ray_smooth_surface_offset, shadow_ray_offset; Hanika 2021,
-"Hacking the shadow terminator", Ray Tracing Gems II, ch. 4) lifts the origin of such grazing shadow rays onto
-a parabolic surface through the corners, tangent to their normals. We do the same, so a smooth low-poly mesh
-bakes the light Cycles bakes, with each object's "Shadow Terminator > Geometry Offset" (Blender's default 0.1;
-0 turns it off). Applied to the shadow rays towards lamps and emissive patches; the world's
-rays (which Cycles mostly traces as BSDF samples) still start from the flat triangle. Concave lifts (which would put the origin below
-the triangle, where Cycles skips the triangle itself and we cannot) are left out.
+A low-poly sphere shaded smooth has shading normals that face a light the flat triangle itself turns away from; a
+shadow ray from the flat triangle then hits the mesh's own facets, and the terminator turns into a jagged staircase.
+Cycles (kernel/light/sample.h: shadow_ray_smooth_surface_offset, shadow_ray_offset; Hanika 2021, "Hacking the shadow
+terminator", Ray Tracing Gems II, ch. 4) lifts the origin of such grazing shadow rays onto a parabolic surface
+through the corners, tangent to their normals. We do the same, so a smooth low-poly mesh bakes the light Cycles
+bakes, with each object's "Shadow Terminator > Geometry Offset" (Blender's default 0.1; 0 turns it off). Applied to
+the shadow rays towards lamps and emissive patches; the world's rays (which Cycles mostly traces as BSDF samples)
+still start from the flat triangle. Concave lifts (which would put the origin below the triangle, where Cycles skips
+the triangle itself and we cannot) are left out.
 """
 from __future__ import annotations
 
