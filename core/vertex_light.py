@@ -16,7 +16,8 @@ elsewhere (open flat surfaces, where it is smooth and the gather would only add 
 - interpolation from the elements around the corner (core.solution.Solution.evaluate): fast and smooth.
 Corners that share a point, normals and material (the corners of one vertex on a flat or smooth-shaded surface)
 share their rays: each such point is evaluated once. A corner on another face in the same plane (a duplicated
-face; core.surface_probes.other_face_test) gets no light, as in Cycles, by every method.
+face; core.surface_probes.other_face_test) or under a face nearer than the ray offset (a rug a hair above the floor;
+core.surface_probes.covered_within) gets no light, as in Cycles, by every method.
 
 A mesh whose modifiers changed its topology keeps its original corners, which lie on or near the rendered surface
 but on none of its triangles: ``projected_points`` casts two rays along each corner's normal line, one from
@@ -37,7 +38,7 @@ from .parallel import MAX_STEPS_IN_FLIGHT, steps_in_flight
 from .ragged import row_groups
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
-from .surface_probes import other_face_test
+from .surface_probes import covered_within, other_face_test
 
 NORMAL_STEPS = 1e4  # normals are matched to 1e-4 per component when corners share a point
 EXACT_LIGHTS_PER_HIT = 8  # the lamps brightest where a corner's gather ray lands that get a shadow ray each
@@ -65,7 +66,7 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
     if method == "interpolate":
         light = np.stack([part.light_at(scene_triangle, moved, points, normals, direct_per_point=True)
                           for part in parts])
-        light[:, _on_another_face(solution, scene_triangle, points)] = 0.0
+        light[:, _dark(solution, scene_triangle, points, normals)] = 0.0
         return light if lightings is not None else light[0]
     shading = solution.scene.shading_normals(scene_triangle, moved)
     surface = np.einsum("mc,mck->mk", moved, solution.scene.triangles[scene_triangle])  # before the inset
@@ -88,14 +89,16 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
             triangle[here])
         part_light[rest] = part.light_at(triangle[rest], moved[first][rest], point[rest], face[rest],
                                          direct_per_point=True)
-    light[:, _on_another_face(solution, triangle, point)] = 0.0
+    light[:, _dark(solution, triangle, point, face)] = 0.0
     return light[:, shared] if lightings is not None else light[0, shared]
 
 
-def _on_another_face(solution, scene_triangle: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """(m,) points on another face in their plane (core.surface_probes.other_face_test), at the contact tolerance
-    lightmap texels are tested with (4 ray offsets)."""
-    return other_face_test(solution.scene.triangles, 4 * solution.offset_m)(scene_triangle, points)
+def _dark(solution, scene_triangle: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(m,) points where Cycles' rays, which start on the surface, meet another face at once, as lightmap texels
+    are tested (core.lightmap.sample_texels): on another face in their plane (core.surface_probes.other_face_test,
+    at 4 ray offsets) or under a face nearer than the ray offset along their unit normals (covered_within)."""
+    on_another_face = other_face_test(solution.scene.triangles, 4 * solution.offset_m)(scene_triangle, points)
+    return on_another_face | covered_within(solution.caster, points, normals, solution.offset_m)
 
 
 def near_share(solution, points: np.ndarray, normals: np.ndarray, seed: int) -> np.ndarray:

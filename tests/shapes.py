@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from core import Material, Scene, SunLight
+from core.bake import ray_offset_m
 
 
 def quad(a, b, c, d) -> np.ndarray:
@@ -37,8 +38,9 @@ def uv_sphere(radius: float, bands_z: np.ndarray, segments: int, ring_height: fl
     """
     tris, band = [], []
     angles = np.linspace(0, 2 * np.pi, segments + 1)
-    rings = [(b, z0, z1) for b, (lo, hi) in enumerate(zip(bands_z[:-1], bands_z[1:]))
-             for z0, z1 in zip(*(lambda e: (e[:-1], e[1:]))(np.linspace(lo, hi, int(np.ceil((hi - lo) / ring_height)) + 1)))]
+    edges = [np.linspace(lo, hi, int(np.ceil((hi - lo) / ring_height)) + 1)
+             for lo, hi in zip(bands_z[:-1], bands_z[1:])]
+    rings = [(b, z0, z1) for b, e in enumerate(edges) for z0, z1 in zip(e[:-1], e[1:])]
     for b, z0, z1 in rings:
         r0, r1 = np.sqrt(max(radius ** 2 - z0 ** 2, 0)), np.sqrt(max(radius ** 2 - z1 ** 2, 0))
         for a0, a1 in zip(angles[:-1], angles[1:]):
@@ -66,3 +68,19 @@ def sunlit_arcade() -> Scene:
                  [Material(name, (value,) * 3) for name, value in
                   (("ground", 0.8), ("floor", 0.01), ("ceiling", 0.7), ("wall", 0.0))],
                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+
+
+def floor_under_near_sheet(floor: np.ndarray, facing: str) -> tuple[Scene, float]:
+    """The given floor (triangles in z = 0 about the origin) in a level 1 km across (a far marker sets the scene's
+    size, so the ray offset is 2 cm), under a sun straight above (3 W/m^2), with a sheet 1 m square lying over its
+    middle a little tilted: 0.2 to 0.8 of the ray offset above the floor, facing "down" (a single-sided shell) or
+    "up". All grey (0.5); triangles in the order floor, marker (2), sheet (2). Returns the scene and its offset."""
+    marker = quad((999.9, -0.05, 0), (1000, -0.05, 0), (1000, 0.05, 0), (999.9, 0.05, 0))
+    sun = SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)
+    grey = [Material("grey", (0.5,) * 3)]
+    offset = ray_offset_m(Scene(np.concatenate([floor, marker]), np.zeros(len(floor) + 2, int), grey, lights=[sun]))
+    low, high = 0.2 * offset, 0.8 * offset
+    corners = [(-0.5, -0.5, low), (0.5, -0.5, high), (0.5, 0.5, high), (-0.5, 0.5, low)]
+    sheet = quad(*(corners if facing == "up" else corners[::-1]))
+    triangles = np.concatenate([floor, marker, sheet])
+    return Scene(triangles, np.zeros(len(triangles), int), grey, lights=[sun]), offset

@@ -21,7 +21,7 @@ from core.raycast import RayCaster
 from core.sampling import cosine_hemisphere
 from core.solution_file import load_solution, save_solution
 from core.texels import footprint_barycentrics, footprint_steps, rasterize, subcell_order
-from shapes import box_faces, quad, sunlit_arcade
+from shapes import box_faces, floor_under_near_sheet, quad, sunlit_arcade
 
 
 def as_mesh(triangles):
@@ -728,24 +728,18 @@ def test_a_rail_through_a_column_is_black_inside_it():
 
 @pytest.mark.parametrize("facing", ["down", "up"])
 def test_a_floor_under_a_sheet_nearer_than_the_ray_offset_is_black(facing):
-    """A floor in a level 1 km across (a far marker sets the scene's size, so the ray offset is 2 cm) under a sun
-    straight above (3 W/m^2), with a sheet 1 m square lying over its middle a little tilted: 0.2 to 0.8 of the
-    ray offset above the floor, facing down (a single-sided shell) or up. Cycles' rays start on the floor and
-    meet the sheet, so the floor under it is black; rays that start an offset above the floor would pass over
-    the sheet and bring the full sun. Texels wholly under the sheet hold 0 (to 1% of the sun's E / pi), those
-    0.2 m beyond it E / pi = 3 / pi within 1% (the sheet's dark underside at grazing angles)."""
+    """A floor 2 m square under a sun straight above (3 W/m^2) with a sheet 1 m square 0.2 to 0.8 ray offsets
+    above its middle, facing down (a single-sided shell) or up (shapes.floor_under_near_sheet). Cycles' rays
+    start on the floor and meet the sheet, so the floor under it is black; rays that start an offset above the
+    floor would pass over the sheet and bring the full sun. Texels wholly under the sheet hold 0 (to 1% of the
+    sun's E / pi), those 0.2 m beyond it E / pi = 3 / pi within 1% (the sheet's dark underside at grazing
+    angles)."""
     floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
-    marker = quad((999.9, -0.05, 0), (1000, -0.05, 0), (1000, 0.05, 0), (999.9, 0.05, 0))
-    sun = SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)
-    offset = ray_offset_m(Scene(np.concatenate([floor, marker]), np.zeros(4, int), [Material("grey", (0.5,) * 3)],
-                                lights=[sun]))
-    low, high = 0.2 * offset, 0.8 * offset
-    corners = [(-0.5, -0.5, low), (0.5, -0.5, high), (0.5, 0.5, high), (-0.5, 0.5, low)]
-    sheet = quad(*(corners if facing == "up" else corners[::-1]))
-    triangles = np.concatenate([floor, marker, sheet])
-    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)], lights=[sun])
+    scene, offset = floor_under_near_sheet(floor, facing)
     assert ray_offset_m(scene) == pytest.approx(offset) and offset > 0.019
+    sheet = scene.triangles[-2:]
     assert abs(triangle_unit_normals(sheet)[0, 0]) > 0.01  # not the floor's plane: the coplanar test cannot see it
+    marker = scene.triangles[2:4]
     result, layout, corner_uv = lightmap_of(scene, [floor, marker, sheet])
     solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
     plan = plan_texels(solution, np.arange(2), corner_uv[:2], layout.width, layout.height)

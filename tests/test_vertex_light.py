@@ -4,7 +4,7 @@ import pytest
 
 from core import BakeSettings, Material, Scene, SunLight, bake
 from core.vertex_light import corner_light, projected_points
-from shapes import box_faces, quad
+from shapes import box_faces, floor_under_near_sheet, quad
 
 STRENGTH = 3.0
 
@@ -58,6 +58,27 @@ def test_corners_on_a_face_overlapping_in_their_plane_are_black_and_the_others_l
     assert light[x > 0] == pytest.approx(0.0, abs=1e-12)
     assert light[x < 0] == pytest.approx(STRENGTH / np.pi, rel=1e-6)
 
+
+
+@pytest.mark.parametrize("method", ["interpolate", "gather", "auto"])
+@pytest.mark.parametrize("facing", ["down", "up"])
+def test_corners_under_a_sheet_nearer_than_the_ray_offset_are_black(facing, method):
+    """A floor of 0.25 m quads 2 m square under a sun straight above (3 W/m^2) with a sheet 1 m square 0.2 to
+    0.8 ray offsets above its middle (shapes.floor_under_near_sheet). Cycles' rays start at the corner and meet
+    the sheet, so the corners under it are black; those 0.25 m or more beyond its edge hold E / pi = 3 / pi
+    within 1% (the sheet's dark underside at grazing angles)."""
+    steps = np.arange(-1.0, 1.0, 0.25)
+    floor = np.concatenate([quad((x, y, 0), (x + 0.25, y, 0), (x + 0.25, y + 0.25, 0), (x, y + 0.25, 0))
+                            for x in steps for y in steps])
+    scene, _ = floor_under_near_sheet(floor, facing)
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    triangle = np.repeat(np.arange(len(floor)), 3)
+    light = corner_light(solution, triangle, np.tile(np.eye(3), (len(floor), 1)), method, 8)[:, 0]
+    distance = np.abs(floor.reshape(-1, 3)[:, :2]).max(axis=1)  # from the middle, along the floor's axes
+    under, beyond = distance < 0.3, distance > 0.7
+    assert np.count_nonzero(under) >= 24 and np.count_nonzero(beyond) >= 100
+    assert light[under] == pytest.approx(0.0, abs=0.01 * 3 / np.pi)
+    assert light[beyond] == pytest.approx(3 / np.pi, rel=0.01)
 
 def _projected(solution, points, normals, centroids, method):
     """Light (irradiance / pi) at corners projected onto the scene's first two triangles within 0.1 m, as the
