@@ -18,7 +18,8 @@ from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts, ga
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import inset, lengths, triangle_areas
-from .surface_probes import covered_within, inside_closed_geometry, other_face_test, push_out_of_geometry
+from .surface_probes import (buried_in_geometry, covered_within, inside_closed_geometry, other_face_test,
+                             push_out_of_geometry)
 from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, rasterize, sample_points,
                      subcell_order)
 
@@ -109,7 +110,8 @@ class TexelPlan:
     inside) and its face's unit normal; texel_m: (m,) a texel's edge length on its triangle; sub_points,
     sub_bary: (m, q, 3) points over its footprint; steps: (m, 2, 3) its ``core.texels.footprint_steps``, for
     finer points over the footprint; moved: (m,) pushed out; dark: (m, q) footprint points no light reaches (on
-    another face in the same plane, or under a face nearer than the ray offset), left out of the texel's means;
+    another face in the same plane, under a face nearer than the ray offset, or buried in closed geometry: the part
+    of a rail's texel that reaches into a column), left out of the texel's means;
     contact: (m,) the share of its footprint they cover (of its points in its triangle), or all of it where its
     point is buried deeper in closed geometry than it can be pushed out (core.surface_probes.push_out_of_geometry);
     settings: with the indirect method chosen; texels_per_chunk: the chunks' size (the rays of a chunk are seeded
@@ -214,7 +216,10 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     m, q = sub_points.shape[:2]
     dark = _on_another_face(other_face_test(scene.triangles, 4 * offset_m), tri, points, sub_points, texels.pixel,
                             width, height)
-    dark |= covered_within(caster, sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0), offset_m).reshape(m, q)
+    flat_points, flat_normals = sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0)
+    dark |= covered_within(caster, flat_points, flat_normals, offset_m).reshape(m, q)
+    dark |= buried_in_geometry(caster, scene.triangles, flat_points, flat_normals, np.repeat(reach, q),
+                               offset_m).reshape(m, q)
     in_triangle = footprint_inside(texels.barycentric, steps, settings.subtexel_samples_per_edge)
     weight = np.where(in_triangle.any(axis=1)[:, None], in_triangle, True)  # where Cycles' samples land
     contact = (dark * weight).sum(axis=1) / weight.sum(axis=1)

@@ -44,12 +44,13 @@ def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, point
     column it runs through; a point beside open shells, whose rays run on to distant single-sided faces, is not).
     """
     out, moved = points.copy(), np.zeros(len(points), dtype=bool)
-    enclosed = np.flatnonzero(inside_closed_geometry(caster, scene_triangles_m, points, normals, offset_m))
-    origins, directions = tangent_rays(points[enclosed], normals[enclosed], offset_m)
-    distance, behind = back_face_hits(caster, scene_triangles_m, origins, directions)
-    reach = np.repeat(np.broadcast_to(reach_m, len(points))[enclosed], TANGENT_RAYS)
-    shut = (distance <= BURIED_REACHES * reach).reshape(-1, TANGENT_RAYS).all(axis=1)
-    distance = np.where(behind & (distance <= reach), distance, np.inf).reshape(-1, TANGENT_RAYS)
+    inside, tangent_distance, tangent_behind = enclosure(caster, scene_triangles_m, points, normals, offset_m)
+    enclosed = np.flatnonzero(inside)
+    _, directions = tangent_rays(points[enclosed], normals[enclosed], offset_m)
+    distance, behind = tangent_distance[enclosed], tangent_behind[enclosed]
+    reach = np.broadcast_to(reach_m, len(points))[enclosed]
+    shut = (distance <= BURIED_REACHES * reach[:, None]).all(axis=1)
+    distance = np.where(behind & (distance <= reach[:, None]), distance, np.inf)
     nearest = distance.argmin(axis=1)
     found = np.isfinite(distance.min(axis=1))
     step = distance[found, nearest[found]] + 2 * offset_m
@@ -70,17 +71,48 @@ def inside_closed_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, poi
     its floor, between single-sided walls) is not inside, whatever its tangent rays meet. (Not every tangent ray
     need meet a back face: where a box's bottom lies on the floor, a ray meets the two coincident faces at once,
     and Embree reports either.) Only points whose normal ray meets a back face cast the tangent rays."""
+    return enclosure(caster, scene_triangles_m, points, normals, offset_m)[0]
+
+
+def buried_in_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray, normals: np.ndarray,
+                       reach_m, offset_m: float) -> np.ndarray:
+    """(m,) True where a surface point is inside closed geometry (``inside_closed_geometry``) and every one of its
+    tangent rays meets a face within BURIED_REACHES x ``reach_m`` (about a texel; a scalar or one length per
+    point): the part of a rail's underside inside a column it runs through. A point beside open shells, whose
+    rays run on to distant single-sided faces (a floor under an arcade), is not buried. The tangent rays are cast
+    as occlusion rays of that length, one direction at a time for the points whose rays so far all met a face
+    (most points are let go after one or two); only the points left are probed for closed geometry."""
+    reach = np.broadcast_to(reach_m, len(points))
+    frames = tangent_frames(normals)
+    shut = np.arange(len(points))
+    for angle in np.arange(TANGENT_RAYS) * 2 * np.pi / TANGENT_RAYS:
+        direction = np.cos(angle) * frames[shut, 0] + np.sin(angle) * frames[shut, 1]
+        origins = points[shut] + offset_m * normals[shut]
+        shut = shut[caster.occluded(origins, direction, BURIED_REACHES * reach[shut])]
+    buried = np.zeros(len(points), dtype=bool)
+    buried[shut] = inside_closed_geometry(caster, scene_triangles_m, points[shut], normals[shut], offset_m)
+    return buried
+
+
+def enclosure(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray, normals: np.ndarray,
+              offset_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``inside_closed_geometry``'s probe: (m,) inside, and (m, TANGENT_RAYS) the distance each tangent ray
+    (``tangent_rays``) travels to the face it meets and whether that face is turned away from it (inf and False
+    for points whose normal ray meets no back face: their tangent rays are not cast)."""
     inside = np.zeros(len(points), dtype=bool)
-    _, behind = back_face_hits(caster, scene_triangles_m, points + offset_m * normals, normals)
-    candidates = np.flatnonzero(behind)
+    distance = np.full((len(points), TANGENT_RAYS), np.inf)
+    behind = np.zeros((len(points), TANGENT_RAYS), dtype=bool)
+    _, normal_behind = back_face_hits(caster, scene_triangles_m, points + offset_m * normals, normals)
+    candidates = np.flatnonzero(normal_behind)
     if len(candidates) == 0:
-        return inside
+        return inside, distance, behind
     origins, directions = tangent_rays(points[candidates], normals[candidates], offset_m)
-    distance, tangent_behind = back_face_hits(caster, scene_triangles_m, origins, directions)
-    all_hit = np.isfinite(distance).reshape(-1, TANGENT_RAYS).all(axis=1)
-    backs = 1 + tangent_behind.reshape(-1, TANGENT_RAYS).sum(axis=1)
-    inside[candidates] = all_hit & (backs >= INSIDE_BACK_FACES)
-    return inside
+    tangent_distance, tangent_behind = back_face_hits(caster, scene_triangles_m, origins, directions)
+    distance[candidates] = tangent_distance.reshape(-1, TANGENT_RAYS)
+    behind[candidates] = tangent_behind.reshape(-1, TANGENT_RAYS)
+    backs = 1 + behind[candidates].sum(axis=1)
+    inside[candidates] = np.isfinite(distance[candidates]).all(axis=1) & (backs >= INSIDE_BACK_FACES)
+    return inside, distance, behind
 
 
 def covered_within(caster: RayCaster, points: np.ndarray, normals: np.ndarray, depth_m: float) -> np.ndarray:

@@ -20,7 +20,7 @@ from core.gather import mean_free_path_m
 from core.raycast import RayCaster
 from core.sampling import cosine_hemisphere
 from core.solution_file import load_solution, save_solution
-from core.texels import footprint_barycentrics, footprint_steps, rasterize, subcell_order
+from core.texels import footprint_barycentrics, footprint_inside, footprint_steps, rasterize, subcell_order
 from shapes import box_faces, floor_under_near_sheet, quad, sunlit_arcade
 
 
@@ -703,17 +703,24 @@ def test_an_arcade_floor_lit_off_its_ceiling_matches_a_path_traced_reference(mon
         assert ours == pytest.approx(reference, rel=0.03)
 
 
+def _rail_through_column(half_width: float):
+    """A single-sided strip facing down (a rail's underside, 0.2 m wide, 3 m long, 1 m up) through a closed column
+    0.3 m deep and 2 x ``half_width`` wide along the strip, all grey (0.5), under a sky of radiance 0.4 and
+    nothing below: the scene, the strip and the column."""
+    strip = quad((-1.5, -0.1, 1), (-1.5, 0.1, 1), (1.5, 0.1, 1), (1.5, -0.1, 1))
+    column = np.concatenate(box_faces((-half_width, -0.15, 0), (half_width, 0.15, 2), inward=False))
+    triangles = np.concatenate([strip, column])
+    return Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
+                 world=World((0.4, 0.4, 0.4))), strip, column
+
+
 def test_a_rail_through_a_column_is_black_inside_it():
     """A single-sided strip facing down (a rail's underside, 0.2 m wide) runs through a closed column 0.3 m across,
     under a sky of radiance 0.4 and nothing below. Inside the column no light reaches the strip (Cycles bakes it
     black). Texels deeper inside the column than a texel (1/16 m), too deep to be pushed out to the strip's
     visible part, are planned as wholly dark (their footprint's dark share is 1) and hold exactly 0; those a
     metre from the column hold the sky, within 2% (the column's view factor from there)."""
-    strip = quad((-1.5, -0.1, 1), (-1.5, 0.1, 1), (1.5, 0.1, 1), (1.5, -0.1, 1))
-    column = np.concatenate(box_faces((-0.15, -0.15, 0), (0.15, 0.15, 2), inward=False))
-    triangles = np.concatenate([strip, column])
-    scene = Scene(triangles, np.zeros(len(triangles), int), [Material("grey", (0.5,) * 3)],
-                  world=World((0.4, 0.4, 0.4)))
+    scene, strip, column = _rail_through_column(0.15)
     result, layout, corner_uv = lightmap_of(scene, [strip, column])
     solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
     plan = plan_texels(solution, np.arange(2), corner_uv[:2], layout.width, layout.height)
@@ -724,6 +731,28 @@ def test_a_rail_through_a_column_is_black_inside_it():
     assert plan.contact[buried] == pytest.approx(1.0)
     assert light[buried] == pytest.approx(0.0, abs=1e-12)
     assert light[np.abs(x) > 1.2] == pytest.approx(0.4, rel=0.02)
+
+
+@pytest.mark.parametrize("half_width", [0.1, 0.22])
+def test_rail_texels_across_a_column_face_are_dark_by_their_share_inside_it(half_width):
+    """The rail of test_a_rail_through_a_column_is_black_inside_it through a column ``half_width`` wide along it,
+    at 8 texels per metre, so that texels whose point lies outside the column reach into it. Cycles takes such a
+    texel's mean over its footprint, black inside the column: its dark share (``contact``) is the part of its
+    footprint inside the column, measured on 16 x 16 points, to the 1/6 a 3 x 3 grid resolves; and no texel holds
+    more than the sky's 0.4 (no radiance in the scene exceeds it) on the part outside, to that resolution."""
+    scene, strip, column = _rail_through_column(half_width)
+    result, layout, corner_uv = lightmap_of(scene, [strip, column], texels_per_metre=8.0)
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5))
+    plan = plan_texels(solution, np.arange(2), corner_uv[:2], layout.width, layout.height)
+    light = result.light.reshape(-1, 3)[plan.pixel, 0]
+    fine = footprint_barycentrics(plan.barycentric, plan.steps, 16)
+    fine_x = np.einsum("mqc,mc->mq", fine, strip[plan.tri][..., 0])
+    in_triangle = footprint_inside(plan.barycentric, plan.steps, 16)  # points folded back into it are left out
+    inside = ((np.abs(fine_x) < half_width) & in_triangle).sum(axis=1) / in_triangle.sum(axis=1)
+    across = np.flatnonzero((inside > 0.1) & (inside < 0.9) & ~plan.moved)
+    assert len(across) >= 2
+    assert plan.contact[across] == pytest.approx(inside[across], abs=1 / 6 + 0.01)
+    assert np.all(light[across] <= 0.4 * (1.0 - inside[across] + 1 / 6))
 
 
 @pytest.mark.parametrize("facing", ["down", "up"])
