@@ -18,6 +18,7 @@ CANDIDATES_PER_CHUNK = 4_000_000
 POINTS_PER_CELL = 8  # inside_any_triangle's grid
 GRID_CELLS_PER_AXIS = 2048  # at most, so that a long thin row of points does not make a huge grid
 TANGENT_RAYS = 8
+TANGENT_ANGLES = np.arange(TANGENT_RAYS) * 2 * np.pi / TANGENT_RAYS  # 45 degree steps in the tangent plane
 INSIDE_BACK_FACES = 5  # of the nine probe rays, those that must meet a back face for a point to be inside
 BURIED_REACHES = 4  # an enclosed point no ray gets out of is buried if all its tangent rays meet a face this near
 COVER_ROUND_OFF = 1 / 16  # of covered_within's depth: a face nearer the point than this is its own plane's
@@ -44,10 +45,10 @@ def push_out_of_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, point
     column it runs through; a point beside open shells, whose rays run on to distant single-sided faces, is not).
     """
     out, moved = points.copy(), np.zeros(len(points), dtype=bool)
-    inside, tangent_distance, tangent_behind = enclosure(caster, scene_triangles_m, points, normals, offset_m)
-    enclosed = np.flatnonzero(inside)
+    inside, candidates, distance, behind = enclosure(caster, scene_triangles_m, points, normals, offset_m)
+    kept = inside[candidates]
+    enclosed, distance, behind = candidates[kept], distance[kept], behind[kept]
     _, directions = tangent_rays(points[enclosed], normals[enclosed], offset_m)
-    distance, behind = tangent_distance[enclosed], tangent_behind[enclosed]
     reach = np.broadcast_to(reach_m, len(points))[enclosed]
     shut = (distance <= BURIED_REACHES * reach[:, None]).all(axis=1)
     distance = np.where(behind & (distance <= reach[:, None]), distance, np.inf)
@@ -85,7 +86,7 @@ def buried_in_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points:
     reach = np.broadcast_to(reach_m, len(points))
     frames = tangent_frames(normals)
     shut = np.arange(len(points))
-    for angle in np.arange(TANGENT_RAYS) * 2 * np.pi / TANGENT_RAYS:
+    for angle in TANGENT_ANGLES:
         direction = np.cos(angle) * frames[shut, 0] + np.sin(angle) * frames[shut, 1]
         origins = points[shut] + offset_m * normals[shut]
         shut = shut[caster.occluded(origins, direction, BURIED_REACHES * reach[shut])]
@@ -95,24 +96,18 @@ def buried_in_geometry(caster: RayCaster, scene_triangles_m: np.ndarray, points:
 
 
 def enclosure(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarray, normals: np.ndarray,
-              offset_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``inside_closed_geometry``'s probe: (m,) inside, and (m, TANGENT_RAYS) the distance each tangent ray
-    (``tangent_rays``) travels to the face it meets and whether that face is turned away from it (inf and False
-    for points whose normal ray meets no back face: their tangent rays are not cast)."""
+              offset_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``inside_closed_geometry``'s probe: (m,) inside; the (k,) points whose normal ray meets a back face, the
+    only ones that cast tangent rays (``tangent_rays``); and for those, (k, TANGENT_RAYS) the distance each
+    tangent ray travels to the face it meets (inf for none) and whether that face is turned away from it."""
     inside = np.zeros(len(points), dtype=bool)
-    distance = np.full((len(points), TANGENT_RAYS), np.inf)
-    behind = np.zeros((len(points), TANGENT_RAYS), dtype=bool)
     _, normal_behind = back_face_hits(caster, scene_triangles_m, points + offset_m * normals, normals)
     candidates = np.flatnonzero(normal_behind)
-    if len(candidates) == 0:
-        return inside, distance, behind
     origins, directions = tangent_rays(points[candidates], normals[candidates], offset_m)
-    tangent_distance, tangent_behind = back_face_hits(caster, scene_triangles_m, origins, directions)
-    distance[candidates] = tangent_distance.reshape(-1, TANGENT_RAYS)
-    behind[candidates] = tangent_behind.reshape(-1, TANGENT_RAYS)
-    backs = 1 + behind[candidates].sum(axis=1)
-    inside[candidates] = np.isfinite(distance[candidates]).all(axis=1) & (backs >= INSIDE_BACK_FACES)
-    return inside, distance, behind
+    distance, behind = (hits.reshape(-1, TANGENT_RAYS)
+                        for hits in back_face_hits(caster, scene_triangles_m, origins, directions))
+    inside[candidates] = np.isfinite(distance).all(axis=1) & (1 + behind.sum(axis=1) >= INSIDE_BACK_FACES)
+    return inside, candidates, distance, behind
 
 
 def covered_within(caster: RayCaster, points: np.ndarray, normals: np.ndarray, depth_m: float) -> np.ndarray:
@@ -267,8 +262,7 @@ def tangent_rays(points: np.ndarray, normals: np.ndarray, offset_m: float) -> tu
     """(m * 8, 3) origins ``offset_m`` above the points and unit directions at 45 degree steps in their tangent
     planes."""
     frames = tangent_frames(normals)
-    angles = np.arange(TANGENT_RAYS) * 2 * np.pi / TANGENT_RAYS
-    local = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    local = np.stack([np.cos(TANGENT_ANGLES), np.sin(TANGENT_ANGLES)], axis=1)
     directions = np.einsum("dk,mkj->mdj", local, frames[:, :2]).reshape(-1, 3)
     return np.repeat(points + offset_m * normals, TANGENT_RAYS, axis=0), directions
 
