@@ -59,7 +59,6 @@ def test_corners_on_a_face_overlapping_in_their_plane_are_black_and_the_others_l
     assert light[x < 0] == pytest.approx(STRENGTH / np.pi, rel=1e-6)
 
 
-
 @pytest.mark.parametrize("method", ["interpolate", "gather", "auto"])
 @pytest.mark.parametrize("facing", ["down", "up"])
 def test_corners_under_a_sheet_nearer_than_the_ray_offset_are_black(facing, method):
