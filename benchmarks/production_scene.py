@@ -18,7 +18,8 @@ relative RMSE over the texels Cycles bakes, and Cycles' time at each of our erro
 Cycles' noise law, as in benchmarks/lightmap_vs_cycles.py (linked duplicates past the first are left out: Cycles
 bakes a shared mesh's UV map once; so are texels pushed out of closed geometry). The table is printed twice:
 over all those texels, and without those on coplanar overlaps, where Cycles bakes two same-facing faces in one
-plane black (benchmarks/coplanar_overlaps.py).
+plane black (benchmarks/coplanar_overlaps.py). Then the texels over twice Cycles plus four times its noise (light
+leaks, issue 14's bound along decals and contacts), in all and per kind of object with its error and mean bias.
 """
 from __future__ import annotations
 
@@ -121,10 +122,15 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
         rows = [(spp, seconds, relative_rmse(light, reference, compared, variance)) for spp, light, seconds in ladder]
         print_against_cycles(rows, {quality: (relative_rmse(light, reference, compared, variance), seconds)
                                     for quality, (light, seconds) in ours.items()})
+    noise = np.sqrt(float(np.mean((first[mask] - second[mask]) ** 2) / 4.0))
+    too_bright = {quality: too_bright_texels(light, reference, noise) & mask for quality, (light, _) in ours.items()}
+    print(f"\nover 2 x Cycles + 4 sigma (sigma {noise:.4f}, the reference's noise over all texels): " +
+          ", ".join(f"{quality} {int(over.sum())}" for quality, over in too_bright.items()))
     kinds = {}  # objects by name without their number: "column north", "ceiling east", "crate"
     for obj in objects:
         kinds.setdefault(obj.name.rstrip("0123456789. "), []).append(obj)
-    print(f"\n{'relative RMSE per kind':26s}" + "".join(f"{quality:>10s}" for quality in ours) + "   mean bias")
+    print(f"\n{'relative RMSE per kind':26s}" + "".join(f"{quality:>10s}" for quality in ours) + "   mean bias" +
+          "   over 2 x Cycles + 4 sigma")
     for name, group in sorted(kinds.items()):
         own = uv_coverage(group, "Lightmap", width, height) & mask
         if own.sum() < 50:
@@ -133,9 +139,16 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
         errors = [relative_rmse(light, reference, own, own_variance) for light, _ in ours.values()]
         bias = [light[own].mean() / reference[own].mean() - 1 for light, _ in ours.values()]
         print(f"{name:26s}" + "".join(f"{error:10.4f}" for error in errors) +
-              "   " + " ".join(f"{b:+.3f}" for b in bias))
+              "   " + " ".join(f"{b:+.3f}" for b in bias) +
+              "   " + " ".join(f"{int((over & own).sum()):d}" for over in too_bright.values()))
     np.savez(folder / f"compare_{count}_{density:g}.npz", first=first, second=second, mask=mask, overlap=overlap,
              **{quality: light for quality, (light, _) in ours.items()})
+
+
+def too_bright_texels(light: np.ndarray, reference: np.ndarray, noise: float) -> np.ndarray:
+    """Texels whose light (mean of the channels) is over twice Cycles' plus four times its noise: where the issue
+    counts a light leak (issue 14's target along decals and contacts)."""
+    return light.mean(axis=-1) > 2.0 * reference.mean(axis=-1) + 4.0 * noise
 
 
 def main() -> None:
