@@ -33,6 +33,12 @@ from blender_setup import triangle_uvs  # noqa: E402
 LEFT_OUT = {"cornell_box": {"ceiling", "light"}, "room": set()}
 
 
+def reference_noise_variance(first, second, mask) -> float:
+    """The noise variance of the mean of two reference bakes with independent seeds over the masked texels: the
+    mean squared difference of the two over 4 (each has variance v, their difference 2 v, their mean v / 2)."""
+    return float(np.mean((first[mask] - second[mask]) ** 2) / 4.0)
+
+
 def relative_rmse(values, reference, mask, reference_variance=0.0) -> float:
     """sqrt(mean squared difference - the reference's own noise variance) / mean of the reference."""
     squared = np.mean((values[mask] - reference[mask]) ** 2) - reference_variance
@@ -72,7 +78,7 @@ def main() -> None:
     first, second, reference_seconds = reference_bakes(args.scene, bake.export.scene, objects, size, size,
                                                        args.reference, args.cache)
     reference = 0.5 * (first + second)
-    variance = float(np.mean((first[mask] - second[mask]) ** 2) / 4.0)  # of the mean of two bakes
+    variance = reference_noise_variance(first, second, mask)
     rows = []
     for samples in [int(s) for s in args.samples.split(",")]:
         light, seconds = cycles_lightmap_bake(objects, "Lightmap", size, size, samples, seed=3)
@@ -85,7 +91,7 @@ def main() -> None:
     print(f"\n{'relative RMSE per object':24s}" + "".join(f"{quality.lower():>10s}" for quality in ours))
     for obj in objects:
         own = uv_coverage([obj], "Lightmap", size, size) & mask
-        own_variance = float(np.mean((first[own] - second[own]) ** 2) / 4.0)
+        own_variance = reference_noise_variance(first, second, own)
         errors = [relative_rmse(light, reference, own, own_variance) for light, _ in ours.values()]
         print(f"{obj.name:24s}" + "".join(f"{error:10.4f}" for error in errors))
     sys.stdout.flush()

@@ -88,7 +88,7 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
                 folder: Path, cache: str) -> None:
     import bpy
     from blender_setup import cycles_lightmap_bake, lightmap_bake, load_extension, uv_coverage
-    from lightmap_vs_cycles import print_against_cycles, reference_bakes, relative_rmse
+    from lightmap_vs_cycles import print_against_cycles, reference_bakes, reference_noise_variance, relative_rmse
     package = load_extension()
     package.register()
     from radiosity_baker.radiosity_addon.lightmaps import OFFSET_PROPERTY
@@ -114,7 +114,7 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
     ladder = [(spp,) + cycles_lightmap_bake(objects, "Lightmap", width, height, spp, seed=3) for spp in samples]
     for compared, which in ((mask, "all texels"), (mask & ~overlap, "without texels on coplanar overlaps "
                                                                     "(benchmarks/coplanar_overlaps.py)")):
-        variance = float(np.mean((first[compared] - second[compared]) ** 2) / 4.0)
+        variance = reference_noise_variance(first, second, compared)
         print(f"\ncourtyard {count} triangles, lightmap {width} x {height} ({density:g} texels/m), "
               f"{int(compared.sum())} texels compared on {len(objects)} objects, {which}; reference: 2 x Cycles "
               f"{reference_samples} spp ({reference_seconds:.1f} s each), its noise "
@@ -122,7 +122,7 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
         rows = [(spp, seconds, relative_rmse(light, reference, compared, variance)) for spp, light, seconds in ladder]
         print_against_cycles(rows, {quality: (relative_rmse(light, reference, compared, variance), seconds)
                                     for quality, (light, seconds) in ours.items()})
-    noise = np.sqrt(float(np.mean((first[mask] - second[mask]) ** 2) / 4.0))
+    noise = np.sqrt(reference_noise_variance(first, second, mask))
     too_bright = {quality: too_bright_texels(light, reference, noise) & mask for quality, (light, _) in ours.items()}
     print(f"\nover 2 x Cycles + 4 sigma (sigma {noise:.4f}, the reference's noise over all texels): " +
           ", ".join(f"{quality} {int(over.sum())}" for quality, over in too_bright.items()))
@@ -135,7 +135,7 @@ def error_table(count: int, qualities: list[str], density: float, samples: list[
         own = uv_coverage(group, "Lightmap", width, height) & mask
         if own.sum() < 50:
             continue
-        own_variance = float(np.mean((first[own] - second[own]) ** 2) / 4.0)
+        own_variance = reference_noise_variance(first, second, own)
         errors = [relative_rmse(light, reference, own, own_variance) for light, _ in ours.values()]
         bias = [light[own].mean() / reference[own].mean() - 1 for light, _ in ours.values()]
         print(f"{name:26s}" + "".join(f"{error:10.4f}" for error in errors) +
