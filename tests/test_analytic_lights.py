@@ -220,7 +220,6 @@ def test_a_smooth_low_poly_cylinder_lit_by_an_emissive_panel_gets_the_panel_s_cl
     assert np.abs(flat - expected).max() > 0.01 * expected.max()
 
 
-
 @pytest.mark.parametrize("exact_lights", [0, 2])
 def test_sampled_lights_are_unbiased(exact_lights):
     """Four lights of different kinds, colours and strengths over a floor, a block casting their shadows: the

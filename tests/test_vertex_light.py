@@ -79,6 +79,7 @@ def test_corners_under_a_sheet_nearer_than_the_ray_offset_are_black(facing, meth
     assert light[under] == pytest.approx(0.0, abs=0.01 * 3 / np.pi)
     assert light[beyond] == pytest.approx(3 / np.pi, rel=0.01)
 
+
 def _projected(solution, points, normals, centroids, method):
     """Light (irradiance / pi) at corners projected onto the scene's first two triangles within 0.1 m, as the
     add-on lights a modified mesh's corners (projected_points, then corner_light); 0 where none is found."""
