@@ -22,14 +22,17 @@ UNIFORM_CHOICE = 0.1  # of one_light_irradiance's light choices, made uniformly
 
 
 def direct_irradiance(scene: Scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
-                      offset_m: float, samples_per_edge: int, seed: int, lift=None, world: bool = True) -> np.ndarray:
-    """(m, 3) irradiance at points with unit normals from every light of the scene and (unless ``world`` is
-    False, for points whose final gather sees the world) its world. ``lift``
+                      offset_m: float, samples_per_edge: int, seed: int, lift=None, world: bool = True,
+                      lights=None) -> np.ndarray:
+    """(m, 3) irradiance at points with unit normals from every light of the scene (or those whose indices
+    ``lights`` lists, each with the same rays as among all) and (unless ``world`` is False, for points whose
+    final gather sees the world) its world. ``lift``
     (core.terminator.ShadowLift, optional) starts the lights' grazing shadow rays from smooth-shaded points on
     their smooth surface, as Cycles does; the world's rays, which Cycles mostly traces as BSDF samples, start from
     the points."""
     irradiance = np.zeros((len(points), 3))
-    for index, (light, factor) in enumerate(zip(scene.lights, scene.light_factor)):
+    for index in range(len(scene.lights)) if lights is None else lights:
+        light, factor = scene.lights[index], scene.light_factor[index]
         if factor == 0:
             continue
         sampler = _SAMPLERS[type(light)]

@@ -50,22 +50,23 @@ class DirectLighting:
 
     def irradiance(self, points: np.ndarray, normals: np.ndarray, samples_per_edge: int | None = None,
                    seed_offset: int = 0, lift=None, world: bool = True, sampled: bool = False,
-                   exact_lights: int = 0) -> np.ndarray:
+                   exact_lights: int = 0, lights=None, emitters: bool = True) -> np.ndarray:
         """(m, 3) direct irradiance at points with unit normals; ``samples_per_edge`` overrides the shadow-ray
         count (s^2 per light and emitter); ``seed_offset`` is added to the bake's seed; ``lift``
         (core.terminator.ShadowLift) starts the shadow rays towards lamps and emissive surfaces from smooth-shaded
         points on their smooth surface (core.terminator); ``world`` False leaves the world out; ``sampled``:
         one shadow ray per point to each of its ``exact_lights`` brightest analytic lights and one to one of the
         others, chosen by importance (core.analytic_lights.sampled_irradiance; unbiased, noisier), with one
-        sample per edge."""
+        sample per edge. Not sampled, ``lights`` (indices into the scene's) leaves the other lights out, and
+        ``emitters`` False the emissive surfaces, each part with the rays it has in the whole."""
         samples = samples_per_edge or self.samples_per_edge
         if sampled:
             total = sampled_irradiance(self.scene, self.caster, points, normals, self.offset_m,
                                        self.seed + seed_offset, world, exact_lights)
         else:
             total = direct_irradiance(self.scene, self.caster, points, normals, self.offset_m, samples,
-                                      self.seed + seed_offset, lift, world)
-        if self.sources is None:
+                                      self.seed + seed_offset, lift, world, lights)
+        if self.sources is None or not emitters:
             return total
         count = self.emitter_count
         step = max(1, POINTS_PER_STEP // count)

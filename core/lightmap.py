@@ -18,6 +18,7 @@ from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts, ga
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import inset, lengths, triangle_areas
+from .scene import PointLight, SpotLight, SunLight
 from .surface_probes import (buried_in_geometry, covered_within, inside_closed_geometry, other_face_test,
                              push_out_of_geometry)
 from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, rasterize, sample_points,
@@ -27,11 +28,15 @@ INDIRECT_METHODS = ("auto", "gather", "interpolate")
 # Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
 # texel at High), and lets progress and Esc through between steps.
 TEXELS_PER_CHUNK = 8192
-# Shadow edges: a texel whose sub-points' direct light spreads over more than this share of the brightest (or
-# differs by that much from a neighbour's) is lit again from this many points per edge in each sub-point's cell
-# (docs/benchmarks.md, "Penumbra texels" and "Shadow edges between the sub-points").
+# Shadow edges: a texel whose sub-points' direct light from one source spreads over more than this share of the
+# brightest (or differs by that much from a neighbour's) is lit again by that source from this many points per
+# edge in each sub-point's cell: wide sources (area lights, emissive surfaces, the world) cast wide penumbrae, and
+# suns, points and spots sharp edges, whose covered share needs the finer points (docs/benchmarks.md, "Penumbra
+# texels", "Shadow edges between the sub-points" and "Shadow edges per light").
 PENUMBRA_SPREAD = 0.1
 PENUMBRA_SAMPLES_PER_EDGE = 2
+SHARP_EDGE_SAMPLES_PER_EDGE = 3
+LIGHT_SOURCES = 8  # of shadows whose edges are found apart (_light_sources): the memory of so many lit at once
 SAME_SURFACE_COSINE = 0.999  # neighbouring texels whose faces' normals agree this well lie on one surface
 
 
@@ -256,8 +261,7 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     in_triangle = footprint_inside(barycentric, plan.steps[chunk], settings.subtexel_samples_per_edge)
     reached = in_triangle & ~plan.dark[chunk]  # a texel wholly dark keeps its points: its light is zeroed
     reached = np.where(reached.any(axis=1)[:, None], reached, in_triangle)
-    direct_light, weight = _direct_light(lightings, plan, chunk, shading, reached, world=not gather)
-    direct = np.stack([_footprint_mean(scene, light, tri, sub_bary, weight) for light in direct_light])
+    direct = _direct_light(lightings, plan, chunk, shading, reached, world=not gather)
     timer.lap("direct")
     if gather:
         indirect, variance = final_gather_parts(lightings, solution.caster, _in_turn(sub_points, reached),
@@ -328,17 +332,18 @@ def _in_turn(sub_points: np.ndarray, reached: np.ndarray) -> np.ndarray:
 
 def _footprint_mean(scene, light: np.ndarray, tri: np.ndarray, sub_bary: np.ndarray,
                     point_weight: np.ndarray) -> np.ndarray:
-    """(m, 3) reflectance-weighted mean of (m, q, 3) light over each texel's sub-points, each also weighted by its
-    (m, q) ``point_weight``: the share of it inside the texel's triangle (core.texels.footprint_inside). Cycles'
-    Diffuse bake without Color divides the diffuse light x colour its samples gathered by the colour they gathered,
-    so where a texture's edge meets a shadow's edge inside one texel, the brighter-coloured side counts more;
-    multiplied by the texture again, the texel then keeps its mean exitance."""
-    m, q = light.shape[:2]
+    """(..., m, 3) reflectance-weighted mean of (..., m, q, 3) light over each texel's sub-points, each also
+    weighted by its (m, q) ``point_weight``: the share of it inside the texel's triangle
+    (core.texels.footprint_inside). Cycles' Diffuse bake without Color divides the diffuse light x colour its
+    samples gathered by the colour they gathered, so where a texture's edge meets a shadow's edge inside one
+    texel, the brighter-coloured side counts more; multiplied by the texture again, the texel then keeps its mean
+    exitance."""
+    m, q = light.shape[-3:-1]
     reflectance = scene.reflectance_at(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(m, q, 3)
     weight = reflectance * point_weight[..., None]
-    total = weight.sum(axis=1)
-    weighted = (weight * light).sum(axis=1) / np.where(total > 0, total, 1.0)
-    return np.where(total > 0, weighted, light.mean(axis=1))
+    total = weight.sum(axis=-2)
+    weighted = (weight * light).sum(axis=-2) / np.where(total > 0, total, 1.0)
+    return np.where(total > 0, weighted, light.mean(axis=-2))
 
 
 def _on_another_face(on_another_face, tri, points, sub_points, pixel, width, height) -> np.ndarray:
@@ -372,51 +377,78 @@ def _footprint_points(triangles_m, barycentric, steps, samples_per_edge, points,
     return sub_points, bary
 
 
-def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.ndarray, reached: np.ndarray,
-                  world: bool) -> tuple[np.ndarray, np.ndarray]:
-    """(g, m, q, 3) direct light of each lighting (the solution, or one per light group) at the q footprint points
-    of the chunk's texels with their (m, q, 3) unit shading normals, and (m, q) each point's weight in its texel's
-    mean: whether it lies in its triangle where light reaches it (``reached``), or the share of its finer points
-    in the triangle where they replace it (none if it is dark, ``plan.dark``). With 1/k the shadow rays per edge at
-    each (rounded up); the world's only if ``world``. Texels on a shadow's edge, where the points' light spreads
-    over more than PENUMBRA_SPREAD of the brightest, are lit again from p x p points spread over each point's cell
-    of the footprint (p = PENUMBRA_SAMPLES_PER_EDGE), new rays in place of the first (an estimate independent of
-    the test that chose the texel, so the choice adds no bias): a penumbra is where a few rays per point are
-    noisiest, and where a sharp shadow's edge crosses the texel, a few fixed points measure its covered share only
-    to 1/k. The edges are found on the lightings' sum, so that light groups sum to the ordinary bake."""
+def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.ndarray,
+                  reached: np.ndarray, world: bool) -> np.ndarray:
+    """(g, m, 3) direct light of each lighting (the solution, or one per light group) on the chunk's texels: the
+    mean (``_footprint_mean``) over their q footprint points with (m, q, 3) unit shading normals, of those in their
+    triangle where light reaches them (``reached``). With 1/k the shadow rays per edge at each (rounded up); the
+    world's only if ``world``. Where the points of a texel see one source of light (``_light_sources``) spread
+    over more than PENUMBRA_SPREAD of the brightest point's light, the texel is lit again by that source from
+    p x p points spread over each point's cell of the footprint (p = PENUMBRA_SAMPLES_PER_EDGE, or
+    SHARP_EDGE_SAMPLES_PER_EDGE for a source of small lights), new rays in place of the first (an estimate
+    independent of the test that chose the texel, so the choice adds no bias): a penumbra is where a few rays per
+    point are noisiest, and where a sharp shadow's edge crosses the texel, a few fixed points measure its covered
+    share only to 1/k. Only the source whose shadow's edge it is: the sun's shadows cost the lamps no more rays.
+    The edges are found on the lightings' sum, so that light groups sum to the ordinary bake."""
     k = plan.settings.subtexel_samples_per_edge
-    tri, barycentric = plan.tri[chunk], plan.barycentric[chunk]
+    tri, barycentric, sub_bary = plan.tri[chunk], plan.barycentric[chunk], plan.sub_bary[chunk]
     light_samples = -(-lightings[0].direct.samples_per_edge // k)
+    scene = lightings[0].scene
 
-    def lit(points, normals, texels, seed_offset):
+    def lit(points, normals, texels, seed_offset, sources):  # (g, sources, texels, points per texel, 3)
         per_texel = points.shape[1]
         return np.stack([solution.direct_light(
             points.reshape(-1, 3), normals.reshape(-1, 3), np.repeat(tri[texels], per_texel),
             np.repeat(barycentric[texels], per_texel, axis=0), light_samples, seed_offset=seed_offset,
-            world=world).reshape(len(points), per_texel, 3) for solution in lightings])
+            world=world, sources=sources).reshape(len(sources), len(points), per_texel, 3)
+            for solution in lightings])
 
-    light = lit(plan.sub_points[chunk], shading, slice(None), k * k * chunk.start)
-    weight = reached.astype(np.float64)
-    if light_samples < PENUMBRA_SAMPLES_PER_EDGE:
-        edge = _shadow_edge_texels(plan, chunk, np.nan_to_num(light).sum(axis=(0, 3)))
-        points, normals = _finer_footprint_points(lightings[0], plan, chunk, edge, shading)
+    sources = _light_sources(len(scene.lights))
+    light = lit(plan.sub_points[chunk], shading, slice(None), k * k * chunk.start, sources)
+    texel_light = _footprint_mean(scene, light, tri, sub_bary, reached.astype(np.float64))
+    if light_samples >= PENUMBRA_SAMPLES_PER_EDGE:
+        return texel_light.sum(axis=1)
+    brightness = np.nan_to_num(light).sum(axis=(0, 4))                                  # (sources, m, q)
+    brightest = brightness.sum(axis=0).max(axis=1)
+    for index, source in enumerate(sources):
+        edge = _shadow_edge_texels(plan, chunk, brightness[index], brightest)
+        if len(edge) == 0:
+            continue
+        split = SHARP_EDGE_SAMPLES_PER_EDGE if _small_lights(scene, *source) else PENUMBRA_SAMPLES_PER_EDGE
+        points, normals = _finer_footprint_points(lightings[0], plan, chunk, edge, shading, split)
         # Seeds past every texel's first pass (k^2 texel_count), so no ray repeats another's.
-        finer = lit(points, normals, edge, k * k * plan.texel_count + points.shape[1] * chunk.start)
-        split = PENUMBRA_SAMPLES_PER_EDGE
+        finer = lit(points, normals, edge, k * k * plan.texel_count + points.shape[1] * chunk.start, [source])
         cells = finer.reshape(len(lightings), len(edge), k * k, split * split, 3)
         finer_in = footprint_inside(barycentric[edge], plan.steps[chunk][edge], k * split)[:, subcell_order(k, split)]
         counted = np.where(finer_in.any(axis=2, keepdims=True), finer_in, True)[None, ..., None]
-        light[:, edge] = (cells * counted).sum(axis=3) / counted.sum(axis=3)  # a cell wholly outside weighs 0
-        weight[edge] = finer_in.mean(axis=2) * ~plan.dark[chunk][edge]
-    return light, weight
+        cell_light = (cells * counted).sum(axis=3) / counted.sum(axis=3)  # a cell wholly outside weighs 0
+        texel_light[:, index, edge] = _footprint_mean(scene, cell_light, tri[edge], sub_bary[edge],
+                                                      finer_in.mean(axis=2) * ~plan.dark[chunk][edge])
+    return texel_light.sum(axis=1)
 
 
-def _shadow_edge_texels(plan: TexelPlan, chunk: slice, brightness: np.ndarray) -> np.ndarray:
+def _light_sources(light_count: int) -> list[tuple[np.ndarray, bool]]:
+    """The sources whose shadows' edges ``_direct_light`` finds apart: the scene's lights in at most
+    LIGHT_SOURCES - 1 runs of consecutive lights (each its own for a few), as (indices, False), then the world
+    and the emissive surfaces, as (no lights, True)."""
+    runs = np.array_split(np.arange(light_count), min(light_count, LIGHT_SOURCES - 1)) if light_count else []
+    return [(run, False) for run in runs] + [(np.zeros(0, dtype=np.int64), True)]
+
+
+def _small_lights(scene, lights: np.ndarray, rest: bool) -> bool:
+    """Whether a source of ``_light_sources`` is suns, points and spots only: small lights, whose shadows' edges
+    are sharp at a texel's scale wherever the occluder is near (an area light's or a glowing panel's penumbrae
+    spread over many texels, where more points only cost time)."""
+    return not rest and all(isinstance(scene.lights[index], (SunLight, PointLight, SpotLight)) for index in lights)
+
+
+def _shadow_edge_texels(plan: TexelPlan, chunk: slice, brightness: np.ndarray, brightest: np.ndarray) -> np.ndarray:
     """Indices into the chunk of its texels on a shadow's edge, from the (c, q) brightness of their footprint
-    points: the points' brightness spreads over more than PENUMBRA_SPREAD of the brightest, or the texel's mean
-    differs by that much from a neighbouring texel's of the chunk on the same surface (an edge that passes
-    between a texel's outer points and its border leaves its points agreeing)."""
-    brightest, mean = brightness.max(axis=1), brightness.mean(axis=1)
+    points in one source's light and the (c,) brightest point's in all: the points' brightness spreads over more
+    than PENUMBRA_SPREAD of the brightest, or the texel's mean differs by that much from a neighbouring texel's of
+    the chunk on the same surface (an edge that passes between a texel's outer points and its border leaves its
+    points agreeing)."""
+    mean = brightness.mean(axis=1)
     edge = np.ptp(brightness, axis=1) > PENUMBRA_SPREAD * brightest
     pixel, points, normals = plan.pixel[chunk], plan.points[chunk], plan.normals[chunk]
     for step in (1, plan.width):  # the neighbour to the right and the one above
@@ -431,11 +463,12 @@ def _shadow_edge_texels(plan: TexelPlan, chunk: slice, brightness: np.ndarray) -
     return np.flatnonzero(edge)
 
 
-def _finer_footprint_points(solution, plan: TexelPlan, chunk: slice, edge: np.ndarray,
-                            shading: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(e, q p^2, 3) points over the footprints of the chunk's ``edge`` texels, p x p over each cell of their
-    k x k grid, cell by cell (the p^2 of the first cell first), and their unit shading normals (each cell's)."""
-    k, split = plan.settings.subtexel_samples_per_edge, PENUMBRA_SAMPLES_PER_EDGE
+def _finer_footprint_points(solution, plan: TexelPlan, chunk: slice, edge: np.ndarray, shading: np.ndarray,
+                            split: int) -> tuple[np.ndarray, np.ndarray]:
+    """(e, q p^2, 3) points over the footprints of the chunk's ``edge`` texels, p x p (``split``) over each cell
+    of their k x k grid, cell by cell (the p^2 of the first cell first), and their unit shading normals (each
+    cell's)."""
+    k = plan.settings.subtexel_samples_per_edge
     texels = np.arange(chunk.start, chunk.stop)[edge]
     points, _ = _footprint_points(solution.scene.triangles[plan.tri[texels]], plan.barycentric[texels],
                                   plan.steps[texels], k * split, plan.points[texels], plan.moved[texels],

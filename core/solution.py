@@ -176,19 +176,23 @@ class Solution:
 
     def direct_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
                      barycentric: np.ndarray, samples_per_edge: int | None = None,
-                     seed_offset: int = 0, world: bool = True) -> np.ndarray:
+                     seed_offset: int = 0, world: bool = True, sources=None) -> np.ndarray:
         """(m, 3) direct light (irradiance / pi) at points by shadow rays; NaN on triangles that were not solved.
         ``seed_offset`` shifts the shadow rays' seed, for points lit in several calls. Shadow rays from
         smooth-shaded triangles start on their smooth surface (core.terminator). ``world`` False leaves the world
-        out (a final gather's rays that escape bring it)."""
+        out (a final gather's rays that escape bring it). ``sources``, a list of (light indices, whether the world
+        and the emissive surfaces too): (S, m, 3) the light of each apart, each with the rays it has in the
+        whole."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         solved = self._scene_to_mesh()[scene_triangle] >= 0
         lift = ShadowLift.at(self.scene, scene_triangle[solved], np.asarray(barycentric, dtype=np.float64)[solved],
                              normals[solved])
-        out = np.full((len(points), 3), np.nan)
-        out[solved] = self.direct.irradiance(points[solved], normals[solved], samples_per_edge, seed_offset,
-                                             lift, world) / np.pi
-        return out
+        parts = [(None, True)] if sources is None else sources
+        out = np.full((len(parts), len(points), 3), np.nan)
+        for part, (lights, rest) in zip(out, parts):
+            part[solved] = self.direct.irradiance(points[solved], normals[solved], samples_per_edge, seed_offset,
+                                                  lift, world and rest, lights=lights, emitters=rest) / np.pi
+        return out[0] if sources is None else out
 
     def indirect_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
                        barycentric: np.ndarray) -> np.ndarray:
