@@ -189,9 +189,10 @@ class Solution:
                              normals[solved])
         parts = [(None, True)] if sources is None else sources
         out = np.full((len(parts), len(points), 3), np.nan)
+        points, normals = points[solved], normals[solved]
         for part, (lights, rest) in zip(out, parts):
-            part[solved] = self.direct.irradiance(points[solved], normals[solved], samples_per_edge, seed_offset,
-                                                  lift, world and rest, lights=lights, emitters=rest) / np.pi
+            part[solved] = self.direct.irradiance(points, normals, samples_per_edge, seed_offset, lift,
+                                                  world and rest, lights=lights, emitters=rest) / np.pi
         return out[0] if sources is None else out
 
     def indirect_light(self, points: np.ndarray, normals: np.ndarray, scene_triangle: np.ndarray,
