@@ -388,36 +388,42 @@ def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.nd
     SHARP_EDGE_SAMPLES_PER_EDGE for a source of small lights), new rays in place of the first (an estimate
     independent of the test that chose the texel, so the choice adds no bias): a penumbra is where a few rays per
     point are noisiest, and where a sharp shadow's edge crosses the texel, a few fixed points measure its covered
-    share only to 1/k. Only the source whose shadow's edge it is: the sun's shadows cost the lamps no more rays.
+    share only to 1/k. Each finer point takes 1/p of a point's shadow rays per edge (rounded up). Small lights'
+    edges are lit again at every quality (more rays per point do not measure the share a sharp edge covers);
+    other sources' only where a point takes fewer than PENUMBRA_SAMPLES_PER_EDGE rays per edge (more resolve a
+    penumbra). Only the source whose shadow's edge it is: the sun's shadows cost the lamps no more rays.
     The edges are found on the lightings' sum, so that light groups sum to the ordinary bake."""
     k = plan.settings.subtexel_samples_per_edge
     tri, barycentric, sub_bary = plan.tri[chunk], plan.barycentric[chunk], plan.sub_bary[chunk]
     light_samples = -(-lightings[0].direct.samples_per_edge // k)
     scene = lightings[0].scene
 
-    def lit(points, normals, texels, seed_offset, sources):  # (g, sources, texels, points per texel, 3)
+    def lit(points, normals, texels, seed_offset, sources, samples):  # (g, sources, texels, points/texel, 3)
         per_texel = points.shape[1]
         return np.stack([solution.direct_light(
             points.reshape(-1, 3), normals.reshape(-1, 3), np.repeat(tri[texels], per_texel),
-            np.repeat(barycentric[texels], per_texel, axis=0), light_samples, seed_offset=seed_offset,
+            np.repeat(barycentric[texels], per_texel, axis=0), samples, seed_offset=seed_offset,
             world=world, sources=sources).reshape(len(sources), len(points), per_texel, 3)
             for solution in lightings])
 
     sources = _light_sources(len(scene.lights))
-    light = lit(plan.sub_points[chunk], shading, slice(None), k * k * chunk.start, sources)
+    light = lit(plan.sub_points[chunk], shading, slice(None), k * k * chunk.start, sources, light_samples)
     texel_light = _footprint_mean(scene, light, tri, sub_bary, reached.astype(np.float64))
-    if light_samples >= PENUMBRA_SAMPLES_PER_EDGE:
+    small = [_small_lights(scene, *source) for source in sources]
+    again = [index for index in range(len(sources)) if small[index] or light_samples < PENUMBRA_SAMPLES_PER_EDGE]
+    if not again:
         return texel_light.sum(axis=1)
     brightness = np.nan_to_num(light).sum(axis=(0, 4))                                  # (sources, m, q)
     brightest = brightness.sum(axis=0).max(axis=1)
-    for index, source in enumerate(sources):
+    for index in again:
         edge = _shadow_edge_texels(plan, chunk, brightness[index], brightest)
         if len(edge) == 0:
             continue
-        split = SHARP_EDGE_SAMPLES_PER_EDGE if _small_lights(scene, *source) else PENUMBRA_SAMPLES_PER_EDGE
+        source, split = sources[index], SHARP_EDGE_SAMPLES_PER_EDGE if small[index] else PENUMBRA_SAMPLES_PER_EDGE
         points, normals = _finer_footprint_points(lightings[0], plan, chunk, edge, shading, split)
         # Seeds past every texel's first pass (k^2 texel_count), so no ray repeats another's.
-        finer = lit(points, normals, edge, k * k * plan.texel_count + points.shape[1] * chunk.start, [source])
+        finer = lit(points, normals, edge, k * k * plan.texel_count + points.shape[1] * chunk.start, [source],
+                    -(-light_samples // split))
         cells = finer.reshape(len(lightings), len(edge), k * k, split * split, 3)
         finer_in = footprint_inside(barycentric[edge], plan.steps[chunk][edge], k * split)[:, subcell_order(k, split)]
         counted = np.where(finer_in.any(axis=2, keepdims=True), finer_in, True)[None, ..., None]

@@ -549,21 +549,25 @@ def test_a_floor_in_full_sun_holds_its_irradiance_in_every_texel():
     assert result.light[result.covered] == pytest.approx(3.0 / np.pi, rel=1e-6)
 
 
-def test_a_sharp_shadow_edge_darkens_each_texel_by_the_share_it_covers():
+@pytest.mark.parametrize("light_samples_per_edge", [2, 7], ids=["Draft", "Medium"])
+def test_a_sharp_shadow_edge_darkens_each_texel_by_the_share_it_covers(light_samples_per_edge):
     """A floor 2 m across on 32 x 32 texels, under a sun straight above with no angle, and a shadow-only sheet
     2 m up covering x < 0.1 + 0.3 y: Cycles jitters a texel's samples over its whole footprint (a one-texel box),
     so each texel holds E / pi times the share of its footprint beyond the edge (integrated here exactly across
     x, on 256 rows). Texels on a sun's edge are lit again from 9 x 9 points, which measure a straight edge's share
     to within half their spacing (1/18) and, over the 24 texels the slanted edge crosses, to 0.015 RMS (Draft's
     3 x 3 points alone: 0.033 RMS, 0.067 at most; with 6 x 6 points, 0.014 and 0.033; measured with 9 x 9, 0.010 and
-    0.017). Away from the diagonal
-    where the floor's two triangles meet and its outer texels, whose points fold back into their triangle."""
+    0.017). The same at Medium's rays (7 per edge, 3 x 3 at each of the 3 x 3 points): more rays per point do not
+    measure the share a sharp edge covers (before Medium's edge texels were lit again: 0.033 and 0.067).
+    Away from the diagonal where the floor's two triangles meet and its outer texels, whose points fold back into
+    their triangle."""
     width, slope, x0 = 32, 0.3, 0.1
     floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
     sheet = quad((-3, -3, 2), (x0 - 3 * slope, -3, 2), (x0 + 3 * slope, 3, 2), (-3, 3, 2))
     scene = Scene(np.concatenate([floor, sheet]), [0, 0, 1, 1], [Material("grey", (0.5,) * 3)] * 2,
                   casts_only=[False, False, True, True], lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
-    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5, light_samples_per_edge=2))
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5,
+                                        light_samples_per_edge=light_samples_per_edge))
     floor_uv = (floor[..., :2] + 1) / 2
     share = bake_lightmap(solution, np.array([0, 1]), floor_uv, width, width,
                           LightmapSettings(indirect="interpolate")).light[..., 0] / (3.0 / np.pi)
@@ -613,8 +617,8 @@ def test_a_texel_across_its_triangles_edge_holds_the_share_of_its_part_inside():
     assert np.sqrt(np.mean(error ** 2)) < 0.02 and np.abs(error).max() < 1 / 18
 
 
-@pytest.mark.parametrize("penumbra_samples, tolerance", [(core.lightmap.PENUMBRA_SAMPLES_PER_EDGE, 0.06), (1, None)])
-def test_a_soft_shadow_edge_matches_the_disk_it_hides(monkeypatch, penumbra_samples, tolerance):
+@pytest.mark.parametrize("edge_samples, tolerance", [(core.lightmap.SHARP_EDGE_SAMPLES_PER_EDGE, 0.06), (1, None)])
+def test_a_soft_shadow_edge_matches_the_disk_it_hides(monkeypatch, edge_samples, tolerance):
     """A floor under a sun straight above, of angular diameter 0.3 rad, sampled as a uniform disk of slopes of
     radius r = tan(0.15); a black sheet 2 m up covers x < 0. From floor point x the sheet hides the sun's
     directions of slope below -x / 2, so the floor holds (E / pi) (1 - A(-x / 2r)), with A(u) = (pi - acos u +
@@ -622,8 +626,9 @@ def test_a_soft_shadow_edge_matches_the_disk_it_hides(monkeypatch, penumbra_samp
     Draft's one shadow ray per sub-point, 9 rays per texel, the 0.6 m penumbra's noise is up to sqrt(0.25 / 9) =
     17% of the full sun (measured 12.7% RMS); texels on a sun's edge are lit again from 3 x 3 points around each
     (81 rays: at most sqrt(0.25 / 81) = 5.6%), except the few whose first nine rays happened to agree with each
-    other and their neighbours: within 6% RMS (measured 4.4%), and no bias."""
-    monkeypatch.setattr(core.lightmap, "PENUMBRA_SAMPLES_PER_EDGE", penumbra_samples)
+    other and their neighbours: within 6% RMS (measured 4.4%), and no bias. Lit again from the same 3 x 3 points
+    (1 x 1 around each), the error stays that of 9 rays."""
+    monkeypatch.setattr(core.lightmap, "SHARP_EDGE_SAMPLES_PER_EDGE", edge_samples)
     floor = quad((-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0))
     sheet = quad((-3, -3, 2), (0, -3, 2), (0, 3, 2), (-3, 3, 2))
     triangles = np.concatenate([floor, sheet])
