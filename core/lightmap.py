@@ -415,8 +415,9 @@ def _direct_light(lightings: list, plan: TexelPlan, chunk: slice, shading: np.nd
         return texel_light.sum(axis=1)
     brightness = np.nan_to_num(light).sum(axis=(0, 4))                                  # (sources, m, q)
     brightest = brightness.sum(axis=0).max(axis=1)
+    neighbours = _surface_neighbours(plan, chunk)  # the same for every source
     for index in again:
-        edge = _shadow_edge_texels(plan, chunk, brightness[index], brightest)
+        edge = _shadow_edge_texels(neighbours, brightness[index], brightest)
         if len(edge) == 0:
             continue
         source, split = sources[index], SHARP_EDGE_SAMPLES_PER_EDGE if small[index] else PENUMBRA_SAMPLES_PER_EDGE
@@ -448,23 +449,33 @@ def _small_lights(scene, lights: np.ndarray, rest: bool) -> bool:
     return not rest and all(isinstance(scene.lights[index], (SunLight, PointLight, SpotLight)) for index in lights)
 
 
-def _shadow_edge_texels(plan: TexelPlan, chunk: slice, brightness: np.ndarray, brightest: np.ndarray) -> np.ndarray:
-    """Indices into the chunk of its texels on a shadow's edge, from the (c, q) brightness of their footprint
-    points in one source's light and the (c,) brightest point's in all: the points' brightness spreads over more
-    than PENUMBRA_SPREAD of the brightest, or the texel's mean differs by that much from a neighbouring texel's of
-    the chunk on the same surface (an edge that passes between a texel's outer points and its border leaves its
-    points agreeing)."""
-    mean = brightness.mean(axis=1)
-    edge = np.ptp(brightness, axis=1) > PENUMBRA_SPREAD * brightest
+def _surface_neighbours(plan: TexelPlan, chunk: slice) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(texels, their neighbours) indices into the chunk: each texel and the one to its right, and each and the one
+    above, where both lie in the chunk on the same surface (normals within SAME_SURFACE_COSINE, within two
+    texels)."""
     pixel, points, normals = plan.pixel[chunk], plan.points[chunk], plan.normals[chunk]
+    pairs = []
     for step in (1, plan.width):  # the neighbour to the right and the one above
         found = np.minimum(np.searchsorted(pixel, pixel + step), len(pixel) - 1)
         neighbour = (pixel[found] == pixel + step) & ((step != 1) | (pixel % plan.width != plan.width - 1))
         same_surface = neighbour & (np.einsum("mk,mk->m", normals, normals[found]) > SAME_SURFACE_COSINE) & (
             lengths(points - points[found]) < 2 * plan.texel_m[chunk])
-        differ = same_surface & (np.abs(mean - mean[found]) > PENUMBRA_SPREAD * np.maximum(brightest,
-                                                                                         brightest[found]))
-        edge[differ] = True
+        texel = np.flatnonzero(same_surface)
+        pairs.append((texel, found[texel]))
+    return pairs
+
+
+def _shadow_edge_texels(neighbours: list, brightness: np.ndarray, brightest: np.ndarray) -> np.ndarray:
+    """Indices into the chunk of its texels on a shadow's edge, from the (c, q) brightness of their footprint
+    points in one source's light and the (c,) brightest point's in all: the points' brightness spreads over more
+    than PENUMBRA_SPREAD of the brightest, or the texel's mean differs by that much from a neighbouring texel's on
+    the same surface (``_surface_neighbours``: an edge that passes between a texel's outer points and its border
+    leaves its points agreeing)."""
+    mean = brightness.mean(axis=1)
+    edge = np.ptp(brightness, axis=1) > PENUMBRA_SPREAD * brightest
+    for texel, found in neighbours:
+        differ = np.abs(mean[texel] - mean[found]) > PENUMBRA_SPREAD * np.maximum(brightest[texel], brightest[found])
+        edge[texel[differ]] = True
         edge[found[differ]] = True
     return np.flatnonzero(edge)
 
