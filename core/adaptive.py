@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .geometry import longest_edges
 from .mesh import ElementMesh, Elements, elements_of, weld_vertices
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -57,7 +58,7 @@ def elements_to_split(mesh: ElementMesh, elements: Elements, irradiance: np.ndar
     jump = np.abs(level[pairs[:, 0]] - level[pairs[:, 1]])
     steep = jump > criteria.threshold * (0.5 * (level[pairs[:, 0]] + level[pairs[:, 1]]) + floor)
     wants[pairs[steep].ravel()] = True
-    longest_edge = np.linalg.norm(elements.corners - np.roll(elements.corners, 1, axis=1), axis=2).max(axis=1)
+    longest_edge = longest_edges(elements.corners)
     return np.flatnonzero(wants & (longest_edge / 2.0 >= criteria.min_edge_m))
 
 

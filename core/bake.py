@@ -4,7 +4,8 @@
 call. Everything is deterministic for a given scene, settings and seed. Two families of solvers:
 
 - "hierarchical" (default, any scene size): face-cluster elements independent of the triangle count, two-sided,
-  linked hierarchically to a cluster tree (core.clusters, core.cluster_tree, core.links, core.hierarchical);
+  made finer where shadows cross them if asked (core.adaptive_elements), linked hierarchically to a cluster tree
+  (core.clusters, core.cluster_tree, core.links, core.hierarchical);
 - "progressive" and "direct" (the classic methods, for small scenes): every receiving triangle is cut into
   patches and elements (core.mesh), with ray-cast or hemicube form-factor rows, adaptive meshing and near-field
   links (core.formfactor_rows, core.solver, core.adaptive, core.nearfield).
@@ -17,16 +18,17 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from . import adaptive
+from .adaptive_elements import adaptive_elements
 from .cluster_tree import build_tree
-from .clusters import cluster_pieces, emitted_exitance
+from .clusters import emitted_exitance
 from .direct_light import DirectLighting
 from .errors import SettingsError
-from .hierarchical import (HierarchicalState, Receivers, live_side_test, node_deviation, node_radiosity,
-                           sample_exposure, side_direct_irradiance, solve)
+from .hierarchical import (HierarchicalState, live_side_test, node_deviation, node_radiosity, side_direct_irradiance,
+                           side_mean, solve)
 from .analytic_lights import direct_irradiance
 from .links import OPENING, LinkSources, build_links, covered_share, refine_links
 from .memory import check_bake_memory, default_limit_gb
-from .mesh import build_mesh, bury, elements_of, node_reflectance
+from .mesh import build_mesh, bury, elements_of
 from .nearfield import near_field_irradiance
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .raycast import RayCaster, first_use_message
@@ -57,7 +59,8 @@ class BakeSettings:
     light_samples_per_edge: s, so s^2 shadow rays per element and soft light (area, sized point, sun angle, world).
     residual_threshold: stop when the unshot (or still changing) power falls below this share of the injected.
     max_shots: the most shots (progressive) or iterations (hierarchical).
-    adaptive_passes, adaptive_threshold, min_element_size_m: adaptive meshing (classic solvers, core.adaptive).
+    adaptive_passes, adaptive_threshold, min_element_size_m: adaptive meshing (core.adaptive_elements for the
+        hierarchical solver, core.adaptive for the classic ones).
     form_factor_memory_mb: memory for the classic element-to-patch form-factor matrix; over it, rows are
         recomputed when needed (memory then stays O(n + P^2)).
     max_memory_gb: the bake is refused (core.memory.MemoryLimitError) before any large allocation when its
@@ -127,7 +130,8 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
     alongside the solve (lightmap texels planned meanwhile); else the bake builds one."""
     emissive = scene.emitted_radiance.max(axis=1)[scene.material_index] > 0
     check_bake_memory(scene.triangles[~scene.casts_only], scene.triangles[emissive], settings.element_size_m,
-                      settings.patch_size_m, settings.max_memory_gb or default_limit_gb(), settings.threads)
+                      settings.patch_size_m, settings.max_memory_gb or default_limit_gb(), settings.threads,
+                      settings.adaptive_passes if settings.solver == "hierarchical" else 0)
     timer = Timer()
     offset = ray_offset_m(scene)
     caster = caster or ray_caster(scene, settings, progress)
@@ -156,10 +160,9 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     """Face clusters, their live sides, links to the cluster tree and the Jacobi solve (core.hierarchical)."""
     size = settings.element_size_m
     mesh = build_mesh(scene, size, size)
-    progress(0.0, f"Clustering {len(mesh.node_bary)} pieces into elements")
-    clusters = cluster_pieces(mesh, scene, caster, size, offset, node_reflectance(mesh, scene, mesh.leaves))
-    exposed_samples = sample_exposure(clusters, mesh, caster, scene, offset, settings.seed)
-    receivers = Receivers.of(clusters, exposed_samples)
+    clusters, exposed_samples, receivers, sample_direct = adaptive_elements(
+        mesh, scene, caster, offset, settings.element_size_m, settings.adaptive_passes, settings.adaptive_threshold,
+        settings.min_element_size_m, settings.light_samples_per_edge, settings.seed, progress)
     # A side whose hemisphere meets no solved surface exchanges no light with the scene (the bottom of a box
     # resting on the floor, facing the void under it; a ground plane under an open sky): it keeps its direct light
     # but sends nothing, so that it does not dilute its clusters' means.
@@ -170,13 +173,10 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     isolated = covered == 0
     source_samples = exposed_samples.copy()
     source_samples[receivers.element[isolated], receivers.side[isolated]] = 0.0
-    timer.lap("elements")
-    progress(0.0, f"Direct light on {len(receivers.element)} element sides")
     direct = np.zeros((clusters.count, 2, 3))
-    direct[receivers.element, receivers.side] = side_direct_irradiance(
-        scene, clusters, caster, exposed_samples, receivers.element, receivers.side, offset,
-        settings.light_samples_per_edge, settings.seed)
-    timer.lap("direct light")
+    direct[receivers.element, receivers.side] = side_mean(exposed_samples, receivers.element, receivers.side,
+                                                          sample_direct)
+    timer.lap("elements and direct light")
     tree = build_tree(clusters.centroid, clusters.low, clusters.high, clusters.normal, source_samples,
                       clusters.sample_point, clusters.sample_normal)
     sources = LinkSources.of(tree, clusters, offset)

@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .geometry import triangle_areas, triangle_unit_normals
+from .geometry import longest_edges, triangle_areas, triangle_unit_normals
 from .mesh import CHILDREN, ElementMesh
 from .ragged import row_groups
 from .raycast import RayCaster
@@ -78,22 +78,26 @@ def normal_bins(normals: np.ndarray) -> np.ndarray:
     return (face * NORMAL_BINS_PER_AXIS + cells[:, 0]) * NORMAL_BINS_PER_AXIS + cells[:, 1]
 
 
-def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_size_m: float, offset_m: float,
+def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_size_m, offset_m: float,
                    piece_reflectance: np.ndarray, nodes: np.ndarray | None = None) -> FaceClusters:
     """Group the mesh's leaves (or the given nodes) into elements of about ``element_size_m`` (see the module
-    docstring); ``piece_reflectance`` (P, 3) is each piece's mean reflectance (textures averaged over it)."""
+    docstring; one size, or one per piece where adaptive elements made some finer: pieces group only with
+    pieces of their own size); ``piece_reflectance`` (P, 3) is each piece's mean reflectance (textures averaged
+    over it)."""
     nodes = mesh.leaves if nodes is None else np.asarray(nodes, dtype=np.int64)
+    size = np.broadcast_to(np.asarray(element_size_m, dtype=np.float64), (len(nodes),))
     corners = mesh.corners(nodes)
     area = triangle_areas(corners)
     normal = triangle_unit_normals(mesh.triangles[mesh.node_triangle[nodes]])
     centroid = corners.mean(axis=1)
     origin = centroid.min(axis=0) if len(centroid) else np.zeros(3)
-    cell = np.floor((centroid - origin) / element_size_m).astype(np.int64)
-    longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
-    alone = np.where(longest >= SMALL_PIECE * element_size_m, np.arange(len(nodes)), -1)
-    key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None]], axis=1)
+    cell = np.floor((centroid - origin) / size[:, None]).astype(np.int64)
+    longest = longest_edges(corners)
+    alone = np.where(longest >= SMALL_PIECE * size, np.arange(len(nodes)), -1)
+    level = np.round(np.log2(size.max() / size)).astype(np.int64) if len(size) else np.zeros(0, np.int64)
+    key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None], level[:, None]], axis=1)
     element, _ = row_groups(key)
-    lift = LIFT_FRACTION * element_size_m
+    lift = LIFT_FRACTION * size
     for round_number in range(VISIBILITY_ROUNDS):
         blocked = _blocked_from_centre(caster, element, centroid, normal, area, lift, offset_m)
         if not blocked.any():
@@ -115,7 +119,7 @@ def emitted_exitance(clusters: FaceClusters, mesh: ElementMesh, scene: Scene) ->
 
 
 def _blocked_from_centre(caster: RayCaster, element: np.ndarray, centroid: np.ndarray, normal: np.ndarray,
-                         area: np.ndarray, lift_m: float, offset_m: float) -> np.ndarray:
+                         area: np.ndarray, lift_m: np.ndarray, offset_m: float) -> np.ndarray:
     """(P,) True for pieces from whose lifted centroid the lifted centre piece of their cluster (the piece nearest
     the cluster's area centroid) is hidden."""
     count = element.max() + 1
@@ -127,8 +131,8 @@ def _blocked_from_centre(caster: RayCaster, element: np.ndarray, centroid: np.nd
     first = order[np.r_[True, element[order][1:] != element[order][:-1]]]
     centre = np.empty(count, dtype=np.int64)
     centre[element[first]] = first
-    target = centroid[centre[element]] + lift_m * normal[centre[element]]
-    start = centroid + lift_m * normal
+    target = centroid[centre[element]] + lift_m[centre[element], None] * normal[centre[element]]
+    start = centroid + lift_m[:, None] * normal
     delta = target - start
     length = np.linalg.norm(delta, axis=1)
     test = np.flatnonzero(length > offset_m)

@@ -19,6 +19,11 @@ def triangle_areas(triangles: np.ndarray) -> np.ndarray:
     return 0.5 * lengths(cross)
 
 
+def longest_edges(triangles: np.ndarray) -> np.ndarray:
+    """(m,) the longest edge of each of (m, 3, 3) triangles."""
+    return np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(axis=1)
+
+
 def triangle_unit_normals(triangles: np.ndarray) -> np.ndarray:
     """Unit normals of (..., 3, 3) triangles (right-handed winding); zero for degenerate ones."""
     normal = np.cross(triangles[..., 1, :] - triangles[..., 0, :], triangles[..., 2, :] - triangles[..., 0, :])

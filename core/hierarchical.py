@@ -68,20 +68,32 @@ def sample_exposure(clusters: FaceClusters, mesh: ElementMesh, caster: RayCaster
     return np.where(inside | repeated, 0.0, share).reshape(clusters.count, 2, SAMPLES)
 
 
-def side_direct_irradiance(scene: Scene, clusters: FaceClusters, caster: RayCaster, exposed_samples: np.ndarray,
-                           element: np.ndarray, side: np.ndarray, offset_m: float, samples_per_edge: int,
-                           seed: int) -> np.ndarray:
-    """(R, 3) direct irradiance, W m^-2, of the given element sides: the mean over each side's exposed samples,
-    weighted by the area they stand for, each sample with ceil(s / sqrt(SAMPLES)) of the s light samples per edge.
-    (At one receiver point, an element the sun crosses, a coarse gallery floor half in sunlight, was all sunlit
-    or all in shade: on the courtyard's galleries that point came out 0.4 to 1.9 times the element's mean.)"""
+def sample_direct_irradiance(scene: Scene, clusters: FaceClusters, caster: RayCaster, element: np.ndarray,
+                             side: np.ndarray, offset_m: float, samples_per_edge: int, seed: int) -> np.ndarray:
+    """(R, SAMPLES, 3) direct irradiance, W m^-2, at the samples of the given element sides, each sample with
+    ceil(s / sqrt(SAMPLES)) of the s light samples per edge."""
     points = clusters.sample_point[element].reshape(-1, 3)
     normals = (clusters.sample_normal[element] * SIDES[side][:, None, None]).reshape(-1, 3)
     per_sample = -(-samples_per_edge // int(np.sqrt(SAMPLES)))
     irradiance = direct_irradiance(scene, caster, points, normals, offset_m, per_sample, seed)
+    return irradiance.reshape(len(element), SAMPLES, 3)
+
+
+def side_mean(exposed_samples: np.ndarray, element: np.ndarray, side: np.ndarray, per_sample: np.ndarray):
+    """(R, 3) the mean of ``per_sample`` (R, SAMPLES, 3) over each side's exposed samples, weighted by the area
+    they stand for. (At one receiver point, an element the sun crosses, a coarse gallery floor half in sunlight,
+    was all sunlit or all in shade: on the courtyard's galleries that point came out 0.4 to 1.9 times the
+    element's mean.)"""
     weight = exposed_samples[element, side]
-    return np.einsum("rs,rsk->rk", weight, irradiance.reshape(len(element), SAMPLES, 3)) / \
-        np.maximum(weight.sum(axis=1), 1e-300)[:, None]
+    return np.einsum("rs,rsk->rk", weight, per_sample) / np.maximum(weight.sum(axis=1), 1e-300)[:, None]
+
+
+def side_direct_irradiance(scene: Scene, clusters: FaceClusters, caster: RayCaster, exposed_samples: np.ndarray,
+                           element: np.ndarray, side: np.ndarray, offset_m: float, samples_per_edge: int,
+                           seed: int) -> np.ndarray:
+    """(R, 3) direct irradiance, W m^-2, of the given element sides: the mean over each side's exposed samples."""
+    per_sample = sample_direct_irradiance(scene, clusters, caster, element, side, offset_m, samples_per_edge, seed)
+    return side_mean(exposed_samples, element, side, per_sample)
 
 
 def live_side_test(scene: Scene, mesh: ElementMesh, node_element: np.ndarray, alive: np.ndarray):

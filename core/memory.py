@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .adaptive_elements import ADAPTIVE_GROWTH
 from .clusters import SMALL_PIECE, normal_bins
 from .errors import SceneError
-from .geometry import triangle_unit_normals
+from .geometry import longest_edges, triangle_unit_normals
 from .parallel import steps_in_flight
 from .ragged import row_groups
 
@@ -96,7 +97,7 @@ class MemoryEstimate:
 
 def piece_counts(triangles_m: np.ndarray, element_size_m: float) -> np.ndarray:
     """(T,) pieces each triangle is cut into at the element size (core.mesh.build_mesh: k x k)."""
-    edges = np.linalg.norm(triangles_m - np.roll(triangles_m, 1, axis=1), axis=2).max(axis=1)
+    edges = longest_edges(triangles_m)
     return np.clip(np.ceil(edges / element_size_m - 1e-9), 1, 1e9).astype(np.int64) ** 2
 
 
@@ -104,7 +105,7 @@ def element_count(triangles_m: np.ndarray, element_size_m: float) -> int:
     """About how many elements core.clusters makes: pieces long enough stand alone, smaller ones group by grid
     cell and normal bin (the visibility split, which adds a few percent, is left out)."""
     pieces = piece_counts(triangles_m, element_size_m)
-    longest = np.linalg.norm(triangles_m - np.roll(triangles_m, 1, axis=1), axis=2).max(axis=1)
+    longest = longest_edges(triangles_m)
     alone = longest / np.sqrt(pieces) >= SMALL_PIECE * element_size_m
     small = ~alone
     centroid = triangles_m[small].mean(axis=1)
@@ -116,13 +117,16 @@ def element_count(triangles_m: np.ndarray, element_size_m: float) -> int:
 
 
 def estimate_bake(triangles_m: np.ndarray, element_size_m: float, covered_texels: int = 0,
-                  image_texels: int = 0, threads: int = 0, planned_texels: int = 0) -> MemoryEstimate:
+                  image_texels: int = 0, threads: int = 0, planned_texels: int = 0,
+                  adaptive_passes: int = 0) -> MemoryEstimate:
     """What a hierarchical bake of these (T, 3, 3) receiving triangles needs on ``threads`` threads (0: every
     core), with lightmap pages lit one at a time (``covered_texels``: the largest page's texels that charts
     cover) whose images (``image_texels`` in all) are kept until they are written, and whose texels
-    (``planned_texels``: every page's covered texels) are planned alongside the solve."""
-    pieces = int(piece_counts(triangles_m, element_size_m).sum())
-    sides = 2 * element_count(triangles_m, element_size_m)
+    (``planned_texels``: every page's covered texels) are planned alongside the solve; each adaptive pass may
+    make up to ADAPTIVE_GROWTH times the pieces and elements."""
+    growth = ADAPTIVE_GROWTH ** adaptive_passes
+    pieces = int(growth * piece_counts(triangles_m, element_size_m).sum())
+    sides = int(2 * growth * element_count(triangles_m, element_size_m))
     persistent = (FIXED_BYTES + BYTES_PER_TRIANGLE * len(triangles_m) + BYTES_PER_PIECE * pieces +
                   BYTES_PER_SOLVED_SIDE * sides + BYTES_PER_IMAGE_TEXEL * image_texels +
                   BYTES_PER_PLANNED_TEXEL * planned_texels)
@@ -131,12 +135,14 @@ def estimate_bake(triangles_m: np.ndarray, element_size_m: float, covered_texels
 
 
 def fit_to_memory(triangles_m: np.ndarray, element_size_m: float, limit_gb: float, covered_texels: int = 0,
-                  image_texels: int = 0, threads: int = 0, planned_texels: int = 0) -> tuple[float, MemoryEstimate]:
+                  image_texels: int = 0, threads: int = 0, planned_texels: int = 0,
+                  adaptive_passes: int = 0) -> tuple[float, MemoryEstimate]:
     """The element size (the one asked for, or up to MOST_COARSENING times larger) at which the estimate fits in
     ``limit_gb``; raises MemoryLimitError naming the figures and the settings to change when none does."""
     size = element_size_m
     while True:
-        estimate = estimate_bake(triangles_m, size, covered_texels, image_texels, threads, planned_texels)
+        estimate = estimate_bake(triangles_m, size, covered_texels, image_texels, threads, planned_texels,
+                                 adaptive_passes)
         if estimate.peak_bytes <= limit_gb * GIB:
             return size, estimate
         if size * COARSENING > MOST_COARSENING * element_size_m:
@@ -150,10 +156,11 @@ def fit_to_memory(triangles_m: np.ndarray, element_size_m: float, limit_gb: floa
 
 
 def check_bake_memory(receivers_m: np.ndarray, emitters_m: np.ndarray, element_size_m: float,
-                      patch_size_m: float, limit_gb: float, threads: int = 0) -> MemoryEstimate:
+                      patch_size_m: float, limit_gb: float, threads: int = 0,
+                      adaptive_passes: int = 0) -> MemoryEstimate:
     """The estimate of a core bake of these receiving and emitting (T, 3, 3) triangles; MemoryLimitError naming
     the setting to change when it is over ``limit_gb`` (a core caller that did not fit its settings first)."""
-    estimate = estimate_bake(receivers_m, element_size_m, threads=threads)
+    estimate = estimate_bake(receivers_m, element_size_m, threads=threads, adaptive_passes=adaptive_passes)
     emitter_pieces = int(piece_counts(emitters_m, patch_size_m).sum())
     estimate = MemoryEstimate(estimate.steps, estimate.persistent + BYTES_PER_PIECE * emitter_pieces)
     if estimate.peak_bytes > limit_gb * GIB:

@@ -111,7 +111,7 @@ def _check_texel_density(job: Job, size: AtlasSize, limit_gb: float) -> None:
     receivers = job.export.scene.triangles[~job.export.scene.casts_only]
     covered = int(min(triangle_areas(receivers).sum() * size.texels_per_metre ** 2, 2 ** 60))
     fit_to_memory(receivers, job.settings.element_size_m, limit_gb, min(covered, size.max_size ** 2), 2 * covered,
-                  job.settings.threads, covered)
+                  job.settings.threads, covered, job.settings.adaptive_passes)
 
 
 def _fit_to_memory(job: Job, limit_gb: float) -> None:
@@ -128,7 +128,7 @@ def _fit_to_memory(job: Job, limit_gb: float) -> None:
         image = parts * width * height * len(plan.page_triangles)
     asked = job.settings.element_size_m
     size, estimate = fit_to_memory(scene.triangles[~scene.casts_only], asked, limit_gb, covered, image,
-                                   job.settings.threads, planned)
+                                   job.settings.threads, planned, job.settings.adaptive_passes)
     job.memory = {"limit_gb": limit_gb, "estimated_gb": round(estimate.peak_bytes / GIB, 2),
                   "steps_gb": {name: round(value / GIB, 2) for name, value in estimate.steps.items()}}
     if size != asked:

@@ -11,21 +11,21 @@ from ..core.atlas import AtlasSize, atlas_size
 from ..core.bake import BakeSettings
 from ..core.lightmap import LightmapSettings
 
-ADAPTIVE_THRESHOLD = 0.3  # relative change of light across an element that splits it (core.adaptive)
-MIN_ELEMENT_SHARE = 0.25  # adaptive meshing splits elements down to this share of the preset's element size
+ADAPTIVE_THRESHOLD = 0.3  # relative change of light across an element that splits it (Custom's adaptive passes)
+MIN_ELEMENT_SHARE = 0.25  # adaptive meshing splits elements down to this share of the element size
 
 
 @dataclass(frozen=True)
 class Preset:
-    """elements_across / patches_across: element and patch edges per scene diagonal; adaptive_passes;
-    residual: the solve stops at this unshot share of the injected power; light_samples: s, so s^2 shadow rays
-    per element and soft light; lightmap_texels_across: lightmap texels per scene diagonal; gather_samples: s,
-    so s^2 final-gather rays per texel where the automatic indirect method gathers; corner_gather_samples: s, so
-    s^2 final-gather rays per vertex-colour corner (no denoiser follows them, so more than per texel)."""
+    """elements_across / patches_across: element and patch edges per scene diagonal (no adaptive pass:
+    docs/benchmarks.md, "Presets"); residual: the solve stops at this unshot share of the injected power;
+    light_samples: s, so s^2 shadow rays per element and soft light; lightmap_texels_across: lightmap texels per
+    scene diagonal; gather_samples: s, so s^2 final-gather rays per texel where the automatic indirect method
+    gathers; corner_gather_samples: s, so s^2 final-gather rays per vertex-colour corner (no denoiser follows
+    them, so more than per texel)."""
 
     elements_across: int
     patches_across: int
-    adaptive_passes: int
     residual: float
     light_samples: int
     lightmap_texels_across: int
@@ -33,15 +33,14 @@ class Preset:
     corner_gather_samples: int
 
     def summary(self) -> str:
-        passes = f"{self.adaptive_passes} adaptive pass" if self.adaptive_passes else "no adaptive pass"
         return (f"{self.elements_across} elements and {self.lightmap_texels_across} lightmap texels across the "
-                f"scene, {passes}, {self.light_samples} x {self.light_samples} shadow rays")
+                f"scene, {self.light_samples} x {self.light_samples} shadow rays")
 
 
 PRESETS = {
-    "DRAFT": Preset(16, 6, 0, 0.02, 2, 128, 6, 8),
-    "MEDIUM": Preset(32, 8, 1, 0.001, 7, 256, 8, 24),
-    "HIGH": Preset(48, 8, 1, 0.0005, 10, 512, 8, 32),
+    "DRAFT": Preset(16, 6, 0.02, 2, 128, 6, 8),
+    "MEDIUM": Preset(32, 8, 0.001, 7, 256, 8, 24),
+    "HIGH": Preset(48, 8, 0.0005, 10, 512, 8, 32),
 }
 
 
@@ -51,7 +50,7 @@ def bake_settings(user, scene_size_m: float) -> BakeSettings:
     preset = PRESETS.get(user.quality)
     if preset is not None:
         element, patch = scene_size_m / preset.elements_across, scene_size_m / preset.patches_across
-        passes, residual, samples = preset.adaptive_passes, preset.residual, preset.light_samples
+        passes, residual, samples = 0, preset.residual, preset.light_samples
     else:
         element, patch = user.element_size, user.patch_size
         passes, residual, samples = user.adaptive_passes, user.residual, user.light_samples

@@ -57,16 +57,17 @@ def _custom(settings) -> bool:
 
 
 SETTINGS = (
-    Setting("quality", "Quality", "MEDIUM", "Preset for element size, adaptive passes, convergence and lightmap "
-            "density, scaled to the scene's size; Custom uses the settings below", flag="--quality",
+    Setting("quality", "Quality", "MEDIUM", "Preset for element size, convergence and lightmap density, scaled "
+            "to the scene's size; Custom uses the settings below", flag="--quality",
             items=_quality_items()),
     Setting("element_size", "Element Size", 0.25, "Target edge length of the receiving elements, m (Custom "
             "quality)", flag="--element-size", low=1e-3, high=1e3, soft_high=2.0, unit="LENGTH", enabled_when=_custom),
     Setting("patch_size", "Patch Size", 1.0, "Target edge length of the shooting patches, m; larger is faster "
             "(Custom quality)", flag="--patch-size", low=1e-3, high=1e3, soft_high=5.0, unit="LENGTH",
             enabled_when=_custom),
-    Setting("adaptive_passes", "Adaptive Passes", 1, "Passes that split elements where light changes fast "
-            "(shadow edges) (Custom quality)", flag="--adaptive-passes", low=0, high=8, enabled_when=_custom),
+    Setting("adaptive_passes", "Adaptive Passes", 0, "Passes that make elements finer where the direct light "
+            "changes fast (shadow edges), each at most doubling them (Custom quality)", flag="--adaptive-passes",
+            low=0, high=8, enabled_when=_custom),
     Setting("residual", "Convergence", 0.01, "Stop when the light still changing is this share of the injected "
             "power and of most surfaces' own light (Custom quality)", flag="--residual", low=1e-6, high=1.0,
             precision=4, enabled_when=_custom),

@@ -84,3 +84,16 @@ def floor_under_near_sheet(floor: np.ndarray, facing: str) -> tuple[Scene, float
     sheet = quad(*(corners if facing == "up" else corners[::-1]))
     triangles = np.concatenate([floor, marker, sheet])
     return Scene(triangles, np.zeros(len(triangles), int), grey, lights=[sun]), offset
+
+
+def sheet_before_sunlit_wall(gap_m: float = 0.03) -> Scene:
+    """A 6 x 3 m wall facing -y (reflectance 0.5) in a sun of 3 W/m^2 at 45 degrees, over a black ground (4 m
+    deep), with a single-sided sheet 1.2 m square (0.5) hanging ``gap_m`` in front of it, 0.9 to 2.1 m up and facing
+    away from it. Triangles in the order wall, ground, sheet (2 each)."""
+    wall = quad((-3, 0, 0), (3, 0, 0), (3, 0, 3), (-3, 0, 3))
+    ground = quad((-3, -4, 0), (3, -4, 0), (3, 0, 0), (-3, 0, 0))
+    y = -gap_m
+    sheet = quad((-0.6, y, 0.9), (0.6, y, 0.9), (0.6, y, 2.1), (-0.6, y, 2.1))
+    return Scene(np.concatenate([wall, ground, sheet]), [0, 0, 1, 1, 0, 0],
+                 [Material("grey", (0.5,) * 3), Material("black", (0.0,) * 3)],
+                 lights=[SunLight("sun", (0.0, 1.0, -1.0), strength_w_m2=3.0)])

@@ -3,7 +3,8 @@ refusal when nothing does."""
 import numpy as np
 import pytest
 
-from core.memory import GIB, MemoryLimitError, estimate_bake, fit_to_memory, physical_memory_bytes
+from core.memory import (BYTES_PER_LINKED_SIDE, BYTES_PER_SOLVED_SIDE, GIB, MemoryLimitError, element_count,
+                         estimate_bake, fit_to_memory, physical_memory_bytes)
 
 
 def subdivided_plane(size_m: float, quads: int) -> np.ndarray:
@@ -54,3 +55,11 @@ def test_texels_planned_alongside_the_solve_count_towards_the_estimate():
 
 def test_the_machine_memory_is_known():
     assert physical_memory_bytes() > 2 ** 30
+
+
+def test_adaptive_passes_count_towards_the_estimate():
+    """Each adaptive pass may double the elements (core.adaptive_elements.ADAPTIVE_GROWTH): after two, the
+    estimate holds at least three times more element sides' memory (solution and links) than without."""
+    sides = 2 * element_count(PLANE, 0.05)
+    added = estimate_bake(PLANE, 0.05, adaptive_passes=2).peak_bytes - estimate_bake(PLANE, 0.05).peak_bytes
+    assert added >= 3 * sides * (BYTES_PER_SOLVED_SIDE + BYTES_PER_LINKED_SIDE)
