@@ -161,7 +161,7 @@ def _hierarchical(scene, settings, caster, offset, timer, progress, cancelled):
     size = settings.element_size_m
     mesh = build_mesh(scene, size, size)
     clusters, exposed_samples, receivers, sample_direct = adaptive_elements(
-        mesh, scene, caster, offset, settings.element_size_m, settings.adaptive_passes, settings.adaptive_threshold,
+        mesh, scene, caster, offset, size, settings.adaptive_passes, settings.adaptive_threshold,
         settings.min_element_size_m, settings.light_samples_per_edge, settings.seed, progress)
     # A side whose hemisphere meets no solved surface exchanges no light with the scene (the bottom of a box
     # resting on the floor, facing the void under it; a ground plane under an open sky): it keeps its direct light
