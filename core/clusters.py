@@ -8,8 +8,10 @@ cluster radiosity groups faces (Willmott, Heckbert & Garland 1999):
 - smaller pieces group by a grid cell of the element size and a bin of their normal direction (24 bins: a cube
   face and a quadrant of it), so an element is about as large as the element size and turns one way;
 - then split wherever a piece cannot see its cluster's centre (a ray between the two, lifted off the surface by
-  a quarter of the element size, is blocked): no element straddles a wall, so no element averages the sunlit
-  ground outside with the floor inside.
+  a quarter of the element size, but at most half way to the surface in front of it, is blocked): no element
+  straddles a wall, so no element averages the sunlit ground outside with the floor inside, nor a soffit in the
+  open with its part running into a block a few centimetres under another surface (lifted past that surface,
+  the pieces there saw the centre).
 
 A million small triangles thus make as many elements as a few large ones covering the same surface. Each element
 keeps ``SAMPLES`` points stratified by area over its pieces (for form factors and probes), the area-weighted
@@ -31,6 +33,7 @@ SAMPLES = 4                 # area-stratified sample points per element
 NORMAL_BINS_PER_AXIS = 2    # 6 cube faces x 2 x 2 normal-direction bins
 VISIBILITY_ROUNDS = 3       # re-clustering rounds for pieces that cannot see their cluster's centre
 LIFT_FRACTION = 0.25        # of the element size: how far the visibility test lifts points off the surface
+LIFT_GAP_SHARE = 0.5        # of the distance to the surface in front of a piece: the most the test lifts it
 SMALL_PIECE = 0.5           # pieces whose longest edge is below this share of the element size are clustered
 
 
@@ -97,7 +100,8 @@ def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_s
     level = np.round(np.log2(size.max() / size)).astype(np.int64) if len(size) else np.zeros(0, np.int64)
     key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None], level[:, None]], axis=1)
     element, _ = row_groups(key)
-    lift = LIFT_FRACTION * size
+    in_front = caster.hit_distance(centroid + offset_m * normal, normal)
+    lift = np.minimum(LIFT_FRACTION * size, LIFT_GAP_SHARE * in_front)
     for round_number in range(VISIBILITY_ROUNDS):
         blocked = _blocked_from_centre(caster, element, centroid, normal, area, lift, offset_m)
         if not blocked.any():

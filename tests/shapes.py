@@ -97,3 +97,20 @@ def sheet_before_sunlit_wall(gap_m: float = 0.03) -> Scene:
     return Scene(np.concatenate([wall, ground, sheet]), [0, 0, 1, 1, 0, 0],
                  [Material("grey", (0.5,) * 3), Material("black", (0.0,) * 3)],
                  lights=[SunLight("sun", (0.0, 1.0, -1.0), strength_w_m2=3.0)])
+
+
+def soffit_into_open_block(gap_m: float) -> Scene:
+    """A soffit 4 x 2 m facing down 3 m up (reflectance 0.7), tessellated into 0.25 m squares as imported meshes
+    are, over a sunlit ground (0.8, a sun of 3 W/m^2 straight above). Its last 3 m run into an open block
+    (0.6: single-sided faces facing out, its bottom ``gap_m`` under the soffit, its far end and long sides
+    missing), so that part lies in a slot lit only through its narrow openings. Triangles in the order ground
+    (2), soffit, block."""
+    ground = quad((-6, -4, 0), (6, -4, 0), (6, 4, 0), (-6, 4, 0))
+    soffit = np.concatenate([quad((x, y, 3), (x, y + 0.25, 3), (x + 0.25, y + 0.25, 3), (x + 0.25, y, 3))
+                             for x in np.arange(-2, 2, 0.25) for y in np.arange(-1, 1, 0.25)])
+    near_end, bottom, top = (box_faces((-0.5, -1, 3 - gap_m), (2.5, 1, 3.5), inward=False)[k] for k in (0, 4, 5))
+    triangles = np.concatenate([ground, soffit, near_end, bottom, top])
+    materials = [0] * 2 + [1] * len(soffit) + [2] * 6
+    return Scene(triangles, materials, [Material(name, (value,) * 3) for name, value in
+                                        (("ground", 0.8), ("soffit", 0.7), ("block", 0.6))],
+                 lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])

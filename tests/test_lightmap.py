@@ -10,6 +10,7 @@ import pytest
 from core import BakeSettings, Material, Scene, SceneError, SettingsError, SunLight, World, bake
 from core.atlas import (AtlasSize, atlas_size, layout_atlas, modifier_uv_problem, pack_blocks, pages_without_overlap,
                         uv_area)
+import core.clusters
 import core.lightmap
 from core.bake import ray_offset_m
 from core.lightmap import (LightmapSettings, TexelLight, bake_lightmap, dilate, finish_lightmap, light_chunk,
@@ -21,7 +22,8 @@ from core.raycast import RayCaster
 from core.sampling import cosine_hemisphere
 from core.solution_file import load_solution, save_solution
 from core.texels import footprint_barycentrics, footprint_inside, footprint_steps, rasterize, subcell_order
-from shapes import box_faces, floor_under_near_sheet, quad, sheet_before_sunlit_wall, sunlit_arcade
+from shapes import (box_faces, floor_under_near_sheet, quad, sheet_before_sunlit_wall, soffit_into_open_block,
+                    sunlit_arcade)
 
 
 def as_mesh(triangles):
@@ -816,3 +818,35 @@ def test_a_floor_under_a_sheet_nearer_than_the_ray_offset_is_black(facing):
     assert np.count_nonzero(under) > 100 and np.count_nonzero(beyond) > 100
     assert light[under] == pytest.approx(0.0, abs=0.01 * 3 / np.pi)
     assert light[beyond] == pytest.approx(3 / np.pi, rel=0.01)
+
+
+@pytest.mark.parametrize("lift_gap_share", [core.clusters.LIFT_GAP_SHARE, np.inf])
+def test_a_soffit_running_into_an_open_block_is_dark_in_the_slot(monkeypatch, lift_gap_share):
+    """A soffit tessellated into 0.25 m squares runs into an open block whose bottom is 15 cm under it
+    (shapes.soffit_into_open_block); the ground under a sun lights it from below. With 2 m elements, the element
+    of the soffit's last 2 m in the open also holds its first 0.5 m in the slot: clustered together, the slot's
+    gather rays, landing on the block's bottom 15 cm away and gathered again there, met the element's mean, lit
+    in the open (a glow 55 times path tracing; the courtyard's arch soffits where the arcades meet, issue 14).
+    The clusters' visibility test lifts each piece at most half way to the surface in front of it
+    (core.clusters.LIFT_GAP_SHARE), so the slot's pieces no longer see past the block's bottom to the open
+    ones' centre and make elements of their own. Against path tracing from the texels' points (6 bounces, 200
+    paths each): the slot's texels of that element within 1% of the open soffit's light (measured -0.5% over
+    three seeds: the slot's own light, 0.6% of the open soffit's, comes out an eighth of it; +30% lifted to the
+    full quarter element), the open ones' within 2% (measured -0.1% to +0.5%)."""
+    monkeypatch.setattr(core.clusters, "LIFT_GAP_SHARE", lift_gap_share)
+    scene = soffit_into_open_block(0.15)
+    solution = bake(scene, BakeSettings(patch_size_m=2.0, element_size_m=2.0))
+    soffit = np.flatnonzero(scene.material_index == 1)
+    xy = scene.triangles[soffit, :, :2]
+    corner_uv = np.stack([(xy[..., 0] + 2) / 4, (xy[..., 1] + 1) / 2], axis=-1)
+    plan = plan_texels(solution, soffit, corner_uv, 64, 32, LightmapSettings(indirect="auto"))
+    light = light_texels(solution, plan).light.reshape(-1, 3)[plan.pixel, 0]
+    x, across = plan.points[:, 0], np.abs(plan.points[:, 1]) < 0.8
+    slot, open_ = np.flatnonzero((x > -0.45) & (x < -0.05) & across), np.flatnonzero((x < -0.6) & across)
+    reference = [path_traced_indirect(scene, solution.caster, plan.points[part], (0.0, 0.0, -1.0), 200, 6, 1,
+                                      solution.offset_m).mean() / np.pi for part in (slot, open_)]
+    assert light[open_].mean() == pytest.approx(reference[1], rel=0.02)
+    if np.isfinite(lift_gap_share):
+        assert abs(light[slot].mean() - reference[0]) < 0.01 * reference[1]
+    else:
+        assert light[slot].mean() > 0.1 * reference[1]   # the test can fail: the slot glows with the open mean
