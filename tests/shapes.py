@@ -101,7 +101,7 @@ def sheet_before_sunlit_wall(gap_m: float = 0.03) -> Scene:
 
 def soffit_into_open_block(gap_m: float) -> Scene:
     """A soffit 4 x 2 m facing down 3 m up (reflectance 0.7), tessellated into 0.25 m squares as imported meshes
-    are, over a sunlit ground (0.8, a sun of 3 W/m^2 straight above). Its last 3 m run into an open block
+    are, over a sunlit ground (0.8, a sun of 3 W/m^2 straight above). Its last 2.5 m run into an open block
     (0.6: single-sided faces facing out, its bottom ``gap_m`` under the soffit, its far end and long sides
     missing), so that part lies in a slot lit only through its narrow openings. Triangles in the order ground
     (2), soffit, block."""

@@ -824,7 +824,7 @@ def test_a_floor_under_a_sheet_nearer_than_the_ray_offset_is_black(facing):
 def test_a_soffit_running_into_an_open_block_is_dark_in_the_slot(monkeypatch, lift_gap_share):
     """A soffit tessellated into 0.25 m squares runs into an open block whose bottom is 15 cm under it
     (shapes.soffit_into_open_block); the ground under a sun lights it from below. With 2 m elements, the element
-    of the soffit's last 2 m in the open also holds its first 0.5 m in the slot: clustered together, the slot's
+    over the soffit's first 2 m holds 1.5 m in the open and 0.5 m in the slot: clustered together, the slot's
     gather rays, landing on the block's bottom 15 cm away and gathered again there, met the element's mean, lit
     in the open (a glow 55 times path tracing; the courtyard's arch soffits where the arcades meet, issue 14).
     The clusters' visibility test lifts each piece at most half way to the surface in front of it
