@@ -11,7 +11,8 @@ escapes brings the world's radiance (pi L_world in place of B_r: the sky by the 
 rather than the direct light's few, as Cycles traces it by BSDF samples). Emission is left out: core.direct_light adds
 it exactly, with shadow rays. A ray that lands on the back of a face
 sees the back side's radiosity (surfaces reflect from both sides, as in Cycles); unsolved ("shadow only")
-surfaces return nothing, and so do directions below the face's own plane when the cosine lobe is turned by a
+surfaces return nothing, as do faces where they overlap another in their plane (Cycles renders them black), and so
+do directions below the face's own plane when the cosine lobe is turned by a
 shading normal (Cycles' diffuse BSDF gives them no weight). Directions are stratified (s x s jittered cells,
 Malley's method) with a seeded shift per point, so the result is deterministic.
 """

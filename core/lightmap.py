@@ -37,6 +37,7 @@ PENUMBRA_SPREAD = 0.1
 PENUMBRA_SAMPLES_PER_EDGE = 2
 SHARP_EDGE_SAMPLES_PER_EDGE = 3
 LIGHT_SOURCES = 8  # of shadows whose edges are found apart (_light_sources): the memory of so many lit at once
+GATHER_ORDER_STREAM = 1  # the random stream, beside the gather's directions', that orders its points
 SAME_SURFACE_COSINE = 0.999  # neighbouring texels whose faces' normals agree this well lie on one surface
 
 
@@ -264,10 +265,11 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     direct = _direct_light(lightings, plan, chunk, shading, reached, world=not gather)
     timer.lap("direct")
     if gather:
-        indirect, variance = final_gather_parts(lightings, solution.caster, _in_turn(sub_points, reached),
+        seed = settings.seed + first_texel
+        indirect, variance = final_gather_parts(lightings, solution.caster, _gather_points(solution, plan, chunk, seed),
                                                 scene.shading_normals(tri, barycentric),
-                                                settings.gather_samples_per_edge, solution.offset_m,
-                                                settings.seed + first_texel, face_normals=normals,
+                                                settings.gather_samples_per_edge, solution.offset_m, seed,
+                                                face_normals=normals,
                                                 near_m=NEAR_ELEMENTS * solution.element_size_m,
                                                 near_samples_per_edge=NEAR_SAMPLES_PER_EDGE)
     else:
@@ -318,6 +320,25 @@ def _inside(solution, points, normals, sub_points) -> np.ndarray:
     m, q = sub_points.shape[:2]
     return inside_closed_geometry(solution.caster, solution.scene.triangles, sub_points.reshape(-1, 3),
                                   np.repeat(normals, q, axis=0), solution.offset_m).reshape(m, q)
+
+
+def _gather_points(solution, plan: TexelPlan, chunk: slice, seed: int) -> np.ndarray:
+    """(c, s^2, 3) a point of each texel's footprint per gather ray, as Cycles' samples each take their own: an
+    s x s grid over the footprint (s the gather's rays per edge; ``_footprint_points``), each point dark where its
+    cell of the k x k grid is (``plan.dark``), in a seeded order per texel (so that a point's place on the texel
+    and its ray's direction are unrelated), those outside the triangle or dark replaced by the others in turn.
+    Rays taking the k x k points in turn let a strip a few centimetres wide, that one column of k points falls
+    in, stand for 1/k of the texel (a narrow gap beside a face in front of the texel, open to bright light)."""
+    s, k = plan.settings.gather_samples_per_edge, plan.settings.subtexel_samples_per_edge
+    barycentric, steps = plan.barycentric[chunk], plan.steps[chunk]
+    points, _ = _footprint_points(solution.scene.triangles[plan.tri[chunk]], barycentric, steps, s,
+                                  plan.points[chunk], plan.moved[chunk], 4 * solution.offset_m)
+    column, row = np.divmod(np.arange(s * s), s)
+    inside = footprint_inside(barycentric, steps, s)
+    reached = inside & ~plan.dark[chunk][:, (column * k // s) * k + row * k // s]
+    reached = np.where(reached.any(axis=1)[:, None], reached, inside)
+    order = np.argsort(np.random.default_rng([seed, GATHER_ORDER_STREAM]).random(reached.shape), axis=1)
+    return _in_turn(np.take_along_axis(points, order[..., None], axis=1), np.take_along_axis(reached, order, axis=1))
 
 
 def _in_turn(sub_points: np.ndarray, reached: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ traced there with shadow rays (core.direct_light), plus the indirect part interp
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,9 +23,10 @@ from .scene import Scene
 from .solver import ConvergenceStep
 from .terminator import ShadowLift
 from .geometry import inset
-from .surface_probes import inside_closed_geometry, nearest_uncovered
+from .surface_probes import inside_closed_geometry, nearest_uncovered, other_face_test, overlapping_triangles
 
 FRONT = 0
+_COPLANAR_LOCK = threading.Lock()
 
 
 @dataclass
@@ -81,6 +83,7 @@ class Solution:
     _field: ReceiverField | None = field(default=None, init=False, repr=False)
     _indirect: np.ndarray | None = field(default=None, init=False, repr=False)
     _to_mesh: np.ndarray | None = field(default=None, init=False, repr=False)
+    _coplanar: tuple | None = field(default=None, init=False, repr=False)
 
     @property
     def residual(self) -> float:
@@ -94,7 +97,7 @@ class Solution:
         lit = Solution(scene, self.mesh, elements, direct, self.caster, self.offset_m, state.ambient(),
                        state.history, seconds, self.caster.rays_cast, state, self.warnings, dict(self.counts),
                        self.element_size_m)
-        lit._field, lit._to_mesh = self._receiver_field(), self._scene_to_mesh()
+        lit._field, lit._to_mesh, lit._coplanar = self._receiver_field(), self._scene_to_mesh(), self._coplanar
         return lit
 
     @property
@@ -212,7 +215,8 @@ class Solution:
         on one coarse element reflect what each receives (two-pass methods, radiosity paper section 10). With
         ``gather_samples_per_edge`` s > 0 the indirect irradiance is gathered there too, by s^2 rays
         (core.gather.final_gather, the world by its escaping rays, one light chosen where each lands), instead of
-        taken from the element. 0 on dead sides and unsolved triangles."""
+        taken from the element. 0 on dead sides, unsolved triangles, and the fronts of faces where they lie on
+        another face in their plane (``_on_another_face``)."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         barycentric = np.asarray(barycentric, dtype=np.float64)
         solved, node = self.pieces(scene_triangle, barycentric)
@@ -233,7 +237,25 @@ class Solution:
         irradiance = self.direct.irradiance(points, normals, 1, seed_offset, world=not gathered, sampled=True,
                                             exact_lights=exact_lights)
         out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * (irradiance + indirect)
+        front = face[alive] == FRONT
+        out[lit[front][self._on_another_face(scene_triangle[lit[front]], points[front])]] = 0.0
         return out
+
+    def _on_another_face(self, scene_triangle: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(m,) surface points on the front of their scene triangles that lie on another face in their plane
+        (core.surface_probes.other_face_test): Cycles renders them black, its rays from them meeting the other face
+        at distance zero, as the lightmap bakes them. Only points of overlapping triangles are tested
+        (core.surface_probes.overlapping_triangles, found once)."""
+        with _COPLANAR_LOCK:  # chunks of texels lit side by side share it
+            if self._coplanar is None:
+                triangles, tolerance_m = self.scene.triangles, 4 * self.offset_m
+                overlapping = overlapping_triangles(triangles, other_face_test(triangles, tolerance_m))
+                self._coplanar = other_face_test(triangles, tolerance_m, overlapping), overlapping
+        test, overlapping = self._coplanar
+        covered = np.zeros(len(points), dtype=bool)
+        maybe = np.flatnonzero(overlapping[scene_triangle])
+        covered[maybe] = test(scene_triangle[maybe], points[maybe])
+        return covered
 
     def pieces(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Solved mask (m,) of surface points, and for the solved ones the mesh leaf (piece) under each."""

@@ -26,6 +26,7 @@ PLANE_NORMAL_STEPS = 1000  # a plane's normal is matched to 1/1000 per component
 CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a face may lie and still rest on it
 COINCIDENT_BEHIND = 1e-10  # of the contact tolerance: round-off in a point's position, far under a copy's
 SMALL_PLANE_TRIANGLES = 8  # other_face_test tests the points of planes with at most this many triangles pairwise
+OVERLAP_INSET = 0.01  # of the way from a triangle's corner to its centroid: off the edges it shares
 UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point towards a target on its triangle
 UNCOVER_BISECTIONS = 6  # then halvings of the last step: the free point found lies within 1/256 of the way
 
@@ -121,8 +122,8 @@ def covered_within(caster: RayCaster, points: np.ndarray, normals: np.ndarray, d
     return caster.occluded(origins, -normals, np.full(len(points), (1.0 - COVER_ROUND_OFF) * depth_m))
 
 
-def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float):
-    """``on_another_face(point_triangle, points)``: (m,) True where surface points, (m, 3) on the given scene triangles,
+def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float, among: np.ndarray | None = None):
+    """``on_another_face(point_triangle, points, any_depth=False, faces=False)``: (m,) True where surface points, (m, 3) on the given scene triangles,
     lie on another face in the same plane; the scene's planes are matched once, for any number of calls. The other face
     faces the other way and the point's face rests against it (the bottom of a box standing on a floor), or it faces the
     same way (a duplicated face, two objects' slabs overlapping). Cycles gives such a point no light, in its bake and in
@@ -136,18 +137,33 @@ def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float):
     the same plane covers it, as a copy a little in front does; of two copies whose vertices differ by single-precision
     round-off (a column and its copy turned 90 degrees), each covers the other where it lies in front, as it does for
     Cycles' rays. Points whose planes hold at most SMALL_PLANE_TRIANGLES such triangles (a prop's facets) are tested
-    pair by pair, all at once; the larger planes one at a time."""
+    pair by pair, all at once; the larger planes one at a time. With ``any_depth``, a point counts as on another
+    face wherever it lies in one of those triangles, in front of or behind it (``overlapping_triangles``); with
+    ``faces``, the call returns (point, face) index arrays instead: each point with a face it lies on. ``among``,
+    a (T,) mask, leaves only those triangles as the other faces (``overlapping_triangles``: of points on them, the
+    only ones that can lie on another)."""
     planes, plane_of, normals = triangle_planes(scene_triangles_m, tolerance_m)
     number = {tuple(plane): index for index, plane in enumerate(planes.tolist())}
     opposite = np.array([number.get(tuple(plane), -1) for plane in (-planes).tolist()], dtype=np.int64)
-    order = np.argsort(plane_of, kind="stable")
+    order = np.arange(len(plane_of)) if among is None else np.flatnonzero(among)
+    order = order[np.argsort(plane_of[order], kind="stable")]
     start = np.searchsorted(plane_of[order], np.arange(len(planes) + 1))
     count = np.append(np.diff(start), 0)  # the last entry: the triangles of no plane, for opposite = -1
 
-    def on_another_face(point_triangle: np.ndarray, points: np.ndarray) -> np.ndarray:
+    def on_another_face(point_triangle: np.ndarray, points: np.ndarray, any_depth: bool = False,
+                        faces: bool = False):
+        covered, found = np.zeros(len(points), dtype=bool), []
+        for point, face in _covering_pairs(point_triangle, points, any_depth):
+            covered[point] = True
+            found.append((point, face))
+        if not faces:
+            return covered
+        return tuple(np.concatenate([pair[side] for pair in found] or [np.zeros(0, dtype=np.int64)])
+                     for side in (0, 1))
+
+    def _covering_pairs(point_triangle, points, any_depth):
         point_plane = plane_of[point_triangle]
         candidates = count[point_plane] + count[opposite[point_plane]]
-        covered = np.zeros(len(points), dtype=bool)
         small = np.flatnonzero((candidates > 1) & (candidates <= SMALL_PLANE_TRIANGLES))
         for first, stop in budget_ranges(candidates[small], CANDIDATES_PER_CHUNK):
             point = np.repeat(small[first:stop], candidates[small[first:stop]])
@@ -156,22 +172,40 @@ def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float):
             mine = index < count[plane]
             face = order[np.where(mine, start[plane] + index,
                                   start[np.maximum(opposite[plane], 0)] + index - count[plane])]
-            behind_m = np.where(mine, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
+            behind_m = np.inf if any_depth else np.where(mine, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
             hit = _inside_pairs(points[point], normals[point_triangle[point]], scene_triangles_m[face], behind_m)
-            covered[point[hit & (face != point_triangle[point])]] = True
+            hit &= face != point_triangle[point]
+            yield point[hit], face[hit]
         large = np.flatnonzero(candidates > SMALL_PLANE_TRIANGLES)
         large = large[np.argsort(point_plane[large], kind="stable")]
         planes_of_large, first = np.unique(point_plane[large], return_index=True)
         for plane, here in zip(planes_of_large.tolist(), np.split(large, first[1:])):  # one step per plane
             faces = np.sort(np.concatenate([order[start[side]:start[side + 1]] for side in (plane, opposite[plane])
                                             if side >= 0]))
-            behind_m = np.where(plane_of[faces] == plane, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
-            covered[here] = inside_any_triangle(points[here], normals[point_triangle[here]],
-                                                scene_triangles_m[faces], behind_m,
-                                                np.searchsorted(faces, point_triangle[here]))
-        return covered
+            behind_m = np.inf if any_depth else \
+                np.where(plane_of[faces] == plane, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
+            for point, face in triangles_containing(points[here], normals[point_triangle[here]],
+                                                    scene_triangles_m[faces], behind_m,
+                                                    np.searchsorted(faces, point_triangle[here])):
+                yield here[point], faces[face]
 
     return on_another_face
+
+
+def overlapping_triangles(scene_triangles_m: np.ndarray, on_another_face) -> np.ndarray:
+    """(T,) True for the triangles that overlap another in their plane or the opposite one, at any depth: where
+    one's corners (OVERLAP_INSET of the way to its centroid) or centroid lie in the other (``other_face_test``'s
+    ``on_another_face``), both are marked. Only their points can lie on another face, so a test of many points
+    (the landing points of gather rays) need only test theirs. Two triangles that cross without a corner or
+    centroid of one in the other (two slivers crossing in an X) are missed."""
+    corners = scene_triangles_m + OVERLAP_INSET * (scene_triangles_m.mean(axis=1, keepdims=True) - scene_triangles_m)
+    points = np.concatenate([corners, scene_triangles_m.mean(axis=1, keepdims=True)], axis=1)
+    point, face = on_another_face(np.repeat(np.arange(len(points)), 4), points.reshape(-1, 3), any_depth=True,
+                                  faces=True)
+    overlapping = np.zeros(len(points), dtype=bool)
+    overlapping[point // 4] = True
+    overlapping[face] = True
+    return overlapping
 
 
 def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -190,12 +224,22 @@ def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.n
                         behind_m: float | np.ndarray, own: np.ndarray | None = None) -> np.ndarray:
     """(p,) whether each point (near the triangles' plane) lies inside any of the (q, 3, 3) triangles whose plane
     is at most ``behind_m`` (one for all, or (q,) one per triangle) behind it along its unit normal (all points
-    share one plane), other than the one ``own`` (p,) gives it (an index into ``triangles``; or none). Points are
-    binned on a grid in that plane, POINTS_PER_CELL to a cell on average, and each triangle is tested only against
-    the points of the cells its bounding box overlaps: the work follows the overlap, not points x triangles."""
+    share one plane), other than the one ``own`` (p,) gives it (an index into ``triangles``; or none): see
+    ``triangles_containing``."""
     inside = np.zeros(len(points), dtype=bool)
+    for point, _ in triangles_containing(points, normals, triangles, behind_m, own):
+        inside[point] = True
+    return inside
+
+
+def triangles_containing(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray,
+                         behind_m: float | np.ndarray, own: np.ndarray | None = None):
+    """``inside_any_triangle``'s pairs: yields (point, triangle) index arrays, each point with a triangle it lies
+    in, a bounded number at a time. Points are binned on a grid in that plane, POINTS_PER_CELL to a cell on
+    average, and each triangle is tested only against the points of the cells its bounding box overlaps: the work
+    follows the overlap, not points x triangles."""
     if len(points) == 0 or len(triangles) == 0:
-        return inside
+        return
     axes = tangent_frames(normals[:1])[0, :2]
     flat, corners = points @ axes.T, triangles @ axes.T
     low, cell, shape, order, cell_start = _bin_points(flat)
@@ -221,8 +265,7 @@ def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.n
                                 np.broadcast_to(behind_m, len(triangles))[pair_triangle])
             if own is not None:
                 hit &= pair_triangle != own[point]
-            inside[point[hit]] = True
-    return inside
+            yield point[hit], pair_triangle[hit]
 
 
 def _bin_points(flat: np.ndarray) -> tuple:

@@ -21,6 +21,7 @@ from core.gather import mean_free_path_m
 from core.raycast import RayCaster
 from core.sampling import cosine_hemisphere
 from core.solution_file import load_solution, save_solution
+from core.surface_probes import other_face_test, overlapping_triangles
 from core.texels import footprint_barycentrics, footprint_inside, footprint_steps, rasterize, subcell_order
 from shapes import (box_faces, floor_under_near_sheet, quad, sheet_before_sunlit_wall, soffit_into_open_block,
                     sunlit_arcade)
@@ -290,6 +291,49 @@ def test_faces_overlapping_in_one_plane_bake_black_and_faces_meeting_at_an_edge_
     row_y = (np.arange(rows) + 0.5) / rows * 2 - 1
     away = np.abs(row_y - (-1 + 2 * (1 - 0.28125) / 1.25)) > 0.1  # from where A's diagonal crosses column 11
     assert np.abs(share[away, 11] - 0.6).max() <= 1 / 6
+
+
+def test_gather_rays_landing_on_faces_overlapping_in_one_plane_see_them_black():
+    """Cycles renders the overlap of two faces in one plane black (benchmarks/coplanar_render.py), so a final
+    gather ray that lands there must read no light. Floors A (x from -1 to 0.25 m) and B (x from -0.275 to 1 m)
+    overlap in the plane z = 0 under a sun straight above (3 W/m^2), reflectance 0.5, nothing else in the scene:
+    landing on either from above, a ray reads rho E = 1.5 W/m^2 off the overlap and 0 on it; from below, 0."""
+    a = quad((-1, -1, 0), (0.25, -1, 0), (0.25, 1, 0), (-1, 1, 0))
+    b = quad((-0.275, -1, 0), (1, -1, 0), (1, 1, 0), (-0.275, 1, 0))
+    scene = Scene(np.concatenate([a, b]), [0, 0, 1, 1], [Material("grey", (0.5,) * 3)] * 2,
+                  lights=[SunLight("sun", (0.0, 0.0, -1.0), strength_w_m2=3.0)])
+    solution = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.5, light_samples_per_edge=2))
+    x, y = np.meshgrid(np.linspace(-0.96, 0.96, 33), [-0.5, 0.1, 0.7])  # none on the overlap's edges
+    points = np.stack([x.ravel(), y.ravel()], axis=1)
+    corners = scene.triangles[:, :, :2]  # every (point, triangle) pair with the point in the triangle
+    edge1, edge2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    relative = points[:, None, :] - corners[None, :, 0]
+    det = edge1[:, 0] * edge2[:, 1] - edge1[:, 1] * edge2[:, 0]
+    u = (relative[..., 0] * edge2[:, 1] - relative[..., 1] * edge2[:, 0]) / det
+    v = (edge1[:, 0] * relative[..., 1] - edge1[:, 1] * relative[..., 0]) / det
+    point, triangle = np.nonzero((u > 1e-6) & (v > 1e-6) & (u + v < 1 - 1e-6))
+    u, v = u[point, triangle], v[point, triangle]
+    barycentric = np.stack([1 - u - v, u, v], axis=1)
+    overlap = (points[point, 0] > -0.275) & (points[point, 0] < 0.25)
+    assert overlap.sum() > 20 and (~overlap).sum() > 20
+    for side, expected in ((0, np.where(overlap, 0.0, 1.5)), (1, np.zeros(len(point)))):
+        reflected = solution.reflected_radiosity(triangle, barycentric, np.full(len(point), side))
+        assert reflected[:, 0] == pytest.approx(expected, abs=1e-9)
+
+
+def test_overlapping_triangles_are_those_with_another_over_part_of_them():
+    """core.surface_probes.overlapping_triangles marks a big floor triangle and a tile lying in its plane inside it
+    (whichever faces up), and neither the floor's other triangle, which only shares an edge with it, nor a wall
+    meeting the floor at its edge, nor a tile 1 cm above the floor (outside the plane tolerance)."""
+    floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
+    tile = np.array([[[0.3, -0.6, 0], [0.6, -0.6, 0], [0.6, -0.3, 0]]])  # inside the floor's first triangle
+    raised = tile[:, :, [1, 0, 2]] + np.array([-0.9, 0.0, 0.01])  # facing down, 1 cm up
+    wall = quad((-1, -1, 0), (-1, 1, 0), (-1, 1, 1), (-1, -1, 1))
+    for flipped in (False, True):
+        placed = tile[:, ::-1] if flipped else tile
+        triangles = np.concatenate([floor, placed, raised, wall])
+        marked = overlapping_triangles(triangles, other_face_test(triangles, 0.004))
+        assert marked.tolist() == [True, False, True, False, False, False]
 
 
 def test_of_two_copies_of_a_floor_a_micrometre_apart_the_upper_is_lit_and_the_lower_black():
