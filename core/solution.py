@@ -9,6 +9,7 @@ traced there with shadow rays (core.direct_light), plus the indirect part interp
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,7 +24,7 @@ from .scene import Scene
 from .solver import ConvergenceStep
 from .terminator import ShadowLift
 from .geometry import inset
-from .surface_probes import inside_closed_geometry, nearest_uncovered, other_face_test, overlapping_triangles
+from .surface_probes import inside_closed_geometry, nearest_uncovered, overlap_test
 
 FRONT = 0
 _COPLANAR_LOCK = threading.Lock()
@@ -83,7 +84,7 @@ class Solution:
     _field: ReceiverField | None = field(default=None, init=False, repr=False)
     _indirect: np.ndarray | None = field(default=None, init=False, repr=False)
     _to_mesh: np.ndarray | None = field(default=None, init=False, repr=False)
-    _coplanar: tuple | None = field(default=None, init=False, repr=False)
+    _coplanar: Callable | None = field(default=None, init=False, repr=False)
 
     @property
     def residual(self) -> float:
@@ -238,24 +239,18 @@ class Solution:
                                             exact_lights=exact_lights)
         out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * (irradiance + indirect)
         front = face[alive] == FRONT
-        out[lit[front][self._on_another_face(scene_triangle[lit[front]], points[front])]] = 0.0
+        out[lit[front][self._on_another_face(scene_triangle[lit[front]], barycentric[lit[front]])]] = 0.0
         return out
 
-    def _on_another_face(self, scene_triangle: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """(m,) surface points on the front of their scene triangles that lie on another face in their plane
-        (core.surface_probes.other_face_test): Cycles renders them black, its rays from them meeting the other face
-        at distance zero, as the lightmap bakes them. Only points of overlapping triangles are tested
-        (core.surface_probes.overlapping_triangles, found once)."""
+    def _on_another_face(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+        """(m,) surface points (scene triangles, (m, 3) barycentrics), on the front of their triangles, that lie on
+        another face in their plane (core.surface_probes.overlap_test, its overlapping triangles found once):
+        Cycles renders them black, its rays from them meeting the other face at distance zero, as the lightmap
+        bakes them."""
         with _COPLANAR_LOCK:  # chunks of texels lit side by side share it
             if self._coplanar is None:
-                triangles, tolerance_m = self.scene.triangles, 4 * self.offset_m
-                overlapping = overlapping_triangles(triangles, other_face_test(triangles, tolerance_m))
-                self._coplanar = other_face_test(triangles, tolerance_m, overlapping), overlapping
-        test, overlapping = self._coplanar
-        covered = np.zeros(len(points), dtype=bool)
-        maybe = np.flatnonzero(overlapping[scene_triangle])
-        covered[maybe] = test(scene_triangle[maybe], points[maybe])
-        return covered
+                self._coplanar = overlap_test(self.scene.triangles, 4 * self.offset_m)
+        return self._coplanar(scene_triangle, barycentric)
 
     def pieces(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Solved mask (m,) of surface points, and for the solved ones the mesh leaf (piece) under each."""

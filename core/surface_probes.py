@@ -27,6 +27,7 @@ CONTACT_BEHIND = 1 / 16  # of the contact tolerance: how far behind a point a fa
 COINCIDENT_BEHIND = 1e-10  # of the contact tolerance: round-off in a point's position, far under a copy's
 SMALL_PLANE_TRIANGLES = 8  # other_face_test tests the points of planes with at most this many triangles pairwise
 OVERLAP_INSET = 0.01  # of the way from a triangle's corner to its centroid: off the edges it shares
+OVERLAP_PARTNERS_PER_CELL = 2  # overlap_test's grid over a triangle: so many overlapping faces to a cell
 UNCOVER_STEPS = (0.25, 0.5, 0.75, 1.0)  # of the way from a buried point towards a target on its triangle
 UNCOVER_BISECTIONS = 6  # then halvings of the last step: the free point found lies within 1/256 of the way
 
@@ -122,8 +123,8 @@ def covered_within(caster: RayCaster, points: np.ndarray, normals: np.ndarray, d
     return caster.occluded(origins, -normals, np.full(len(points), (1.0 - COVER_ROUND_OFF) * depth_m))
 
 
-def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float, among: np.ndarray | None = None):
-    """``on_another_face(point_triangle, points, any_depth=False, faces=False)``: (m,) True where surface points, (m, 3) on the given scene triangles,
+def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float):
+    """``on_another_face(point_triangle, points)``: (m,) True where surface points, (m, 3) on the given scene triangles,
     lie on another face in the same plane; the scene's planes are matched once, for any number of calls. The other face
     faces the other way and the point's face rests against it (the bottom of a box standing on a floor), or it faces the
     same way (a duplicated face, two objects' slabs overlapping). Cycles gives such a point no light, in its bake and in
@@ -138,15 +139,12 @@ def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float, among: np
     round-off (a column and its copy turned 90 degrees), each covers the other where it lies in front, as it does for
     Cycles' rays. Points whose planes hold at most SMALL_PLANE_TRIANGLES such triangles (a prop's facets) are tested
     pair by pair, all at once; the larger planes one at a time. With ``any_depth``, a point counts as on another
-    face wherever it lies in one of those triangles, in front of or behind it (``overlapping_triangles``); with
-    ``faces``, the call returns (point, face) index arrays instead: each point with a face it lies on. ``among``,
-    a (T,) mask, leaves only those triangles as the other faces (``overlapping_triangles``: of points on them, the
-    only ones that can lie on another)."""
+    face wherever it lies in one of those triangles, in front of or behind it (``overlap_test``); with ``faces``,
+    the call returns (point, face) index arrays instead: each point with a face it lies on."""
     planes, plane_of, normals = triangle_planes(scene_triangles_m, tolerance_m)
     number = {tuple(plane): index for index, plane in enumerate(planes.tolist())}
     opposite = np.array([number.get(tuple(plane), -1) for plane in (-planes).tolist()], dtype=np.int64)
-    order = np.arange(len(plane_of)) if among is None else np.flatnonzero(among)
-    order = order[np.argsort(plane_of[order], kind="stable")]
+    order = np.argsort(plane_of, kind="stable")
     start = np.searchsorted(plane_of[order], np.arange(len(planes) + 1))
     count = np.append(np.diff(start), 0)  # the last entry: the triangles of no plane, for opposite = -1
 
@@ -192,20 +190,68 @@ def other_face_test(scene_triangles_m: np.ndarray, tolerance_m: float, among: np
     return on_another_face
 
 
-def overlapping_triangles(scene_triangles_m: np.ndarray, on_another_face) -> np.ndarray:
-    """(T,) True for the triangles that overlap another in their plane or the opposite one, at any depth: where
-    one's corners (OVERLAP_INSET of the way to its centroid) or centroid lie in the other (``other_face_test``'s
-    ``on_another_face``), both are marked. Only their points can lie on another face, so a test of many points
-    (the landing points of gather rays) need only test theirs. Two triangles that cross without a corner or
-    centroid of one in the other (two slivers crossing in an X) are missed."""
-    corners = scene_triangles_m + OVERLAP_INSET * (scene_triangles_m.mean(axis=1, keepdims=True) - scene_triangles_m)
-    points = np.concatenate([corners, scene_triangles_m.mean(axis=1, keepdims=True)], axis=1)
-    point, face = on_another_face(np.repeat(np.arange(len(points)), 4), points.reshape(-1, 3), any_depth=True,
-                                  faces=True)
-    overlapping = np.zeros(len(points), dtype=bool)
-    overlapping[point // 4] = True
-    overlapping[face] = True
-    return overlapping
+def overlap_test(scene_triangles_m: np.ndarray, tolerance_m: float):
+    """``on_another_face(point_triangle, barycentric)``: ``other_face_test``'s answer for surface points given by
+    their scene triangles and (m, 3) barycentrics, for many calls of a few points each (where gather rays land).
+    The pairs of triangles that overlap in their plane or the opposite one are found once: where a corner of one
+    (OVERLAP_INSET of the way to its centroid) or its centroid lies in the other, at any depth. Each triangle's
+    partners are binned on a grid over its own (u, v) barycentrics (OVERLAP_PARTNERS_PER_CELL to a cell, on the
+    mean: a floor holds hundreds of tiles), and a point is tested, as ``other_face_test`` tests it, against the
+    partners of its cell alone. Two triangles that cross without a corner or centroid of one in the other (two
+    slivers crossing in an X) are missed."""
+    count = len(scene_triangles_m)
+    centroids = scene_triangles_m.mean(axis=1, keepdims=True)
+    points = np.concatenate([scene_triangles_m + OVERLAP_INSET * (centroids - scene_triangles_m), centroids], axis=1)
+    point, face = other_face_test(scene_triangles_m, tolerance_m)(
+        np.repeat(np.arange(count), 4), points.reshape(-1, 3), any_depth=True, faces=True)
+    pairs = np.unique(np.stack([np.concatenate([point // 4, face]), np.concatenate([face, point // 4])], axis=1),
+                      axis=0)
+    mine, partner = pairs[:, 0], pairs[:, 1]
+    normals = triangle_unit_normals(scene_triangles_m)
+    same_way = np.einsum("nk,nk->n", normals[mine], normals[partner]) > 0
+    behind_m = np.where(same_way, COINCIDENT_BEHIND, CONTACT_BEHIND) * tolerance_m
+    side = np.ceil(np.sqrt(np.bincount(mine, minlength=count) / OVERLAP_PARTNERS_PER_CELL)).astype(np.int64)
+    first_cell = np.concatenate([[0], np.cumsum(side ** 2)])
+    cell, pair = _partner_cells(scene_triangles_m, mine, partner, side, first_cell)
+    cell_start = np.searchsorted(cell, np.arange(first_cell[-1] + 2))  # one past the last: a triangle of none
+
+    def on_another_face(point_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
+        grid = side[point_triangle]
+        u, v = (np.clip(barycentric[:, axis] * grid, 0, np.maximum(grid - 1, 0)).astype(np.int64) for axis in (1, 2))
+        here = first_cell[point_triangle] + u * grid + v
+        partners = np.where(grid > 0, cell_start[here + 1] - cell_start[here], 0)
+        point = np.repeat(np.arange(len(point_triangle)), partners)
+        tested = pair[np.repeat(cell_start[here], partners) + concatenated_ranges(partners)]
+        hit = _inside_pairs(np.einsum("mc,mck->mk", barycentric[point], scene_triangles_m[point_triangle[point]]),
+                            normals[point_triangle[point]], scene_triangles_m[partner[tested]], behind_m[tested])
+        covered = np.zeros(len(point_triangle), dtype=bool)
+        covered[point[hit]] = True
+        return covered
+
+    return on_another_face
+
+
+def _partner_cells(scene_triangles_m, mine, partner, side, first_cell) -> tuple[np.ndarray, np.ndarray]:
+    """(cell, pair) sorted by cell: each pair (``mine``, ``partner``) in every cell of ``mine``'s side x side grid
+    over its (u, v) barycentrics that the partner's bounding box in those coordinates overlaps."""
+    own = scene_triangles_m[mine]
+    e1, e2 = own[:, 1] - own[:, 0], own[:, 2] - own[:, 0]
+    d11, d12, d22 = (np.einsum("nk,nk->n", e1, e1), np.einsum("nk,nk->n", e1, e2), np.einsum("nk,nk->n", e2, e2))
+    det = np.where(np.abs(d11 * d22 - d12 * d12) > 1e-300, d11 * d22 - d12 * d12, np.inf)[:, None]
+    rel = scene_triangles_m[partner] - own[:, :1]
+    r1, r2 = np.einsum("nck,nk->nc", rel, e1), np.einsum("nck,nk->nc", rel, e2)
+    grid = side[mine]
+    low, high = [], []
+    for coordinate in ((d22[:, None] * r1 - d12[:, None] * r2) / det, (d11[:, None] * r2 - d12[:, None] * r1) / det):
+        low.append(np.clip(np.floor(coordinate.min(axis=1) * grid), 0, grid - 1).astype(np.int64))
+        high.append(np.clip(np.floor(coordinate.max(axis=1) * grid), 0, grid - 1).astype(np.int64))
+    across, up = high[0] - low[0] + 1, high[1] - low[1] + 1
+    pair = np.repeat(np.arange(len(mine)), across * up)
+    step = concatenated_ranges(across * up)
+    u, v = low[0][pair] + step // up[pair], low[1][pair] + step % up[pair]
+    cell = first_cell[mine[pair]] + u * side[mine[pair]] + v
+    order = np.argsort(cell, kind="stable")
+    return cell[order], pair[order]
 
 
 def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

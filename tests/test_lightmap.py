@@ -21,7 +21,7 @@ from core.gather import mean_free_path_m
 from core.raycast import RayCaster
 from core.sampling import cosine_hemisphere
 from core.solution_file import load_solution, save_solution
-from core.surface_probes import other_face_test, overlapping_triangles
+from core.surface_probes import other_face_test, overlap_test
 from core.texels import footprint_barycentrics, footprint_inside, footprint_steps, rasterize, subcell_order
 from shapes import (box_faces, floor_under_near_sheet, quad, sheet_before_sunlit_wall, soffit_into_open_block,
                     sunlit_arcade)
@@ -321,19 +321,34 @@ def test_gather_rays_landing_on_faces_overlapping_in_one_plane_see_them_black():
         assert reflected[:, 0] == pytest.approx(expected, abs=1e-9)
 
 
-def test_overlapping_triangles_are_those_with_another_over_part_of_them():
-    """core.surface_probes.overlapping_triangles marks a big floor triangle and a tile lying in its plane inside it
-    (whichever faces up), and neither the floor's other triangle, which only shares an edge with it, nor a wall
-    meeting the floor at its edge, nor a tile 1 cm above the floor (outside the plane tolerance)."""
+def test_overlap_test_agrees_with_the_test_of_whole_planes():
+    """core.surface_probes.overlap_test, which tests a point against the overlapping triangles in its cell of its
+    own triangle alone, finds the points other_face_test finds, of 8000 random points on: a floor of two
+    triangles, a tile lying in its plane inside the first (facing up or down), 16 small tiles on the second (so
+    that its overlapping triangles are binned on a grid), a tile 1 cm above the floor (outside the plane
+    tolerance) and a wall meeting the floor at its edge. The points on the tiles and under them are covered."""
     floor = quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0))
     tile = np.array([[[0.3, -0.6, 0], [0.6, -0.6, 0], [0.6, -0.3, 0]]])  # inside the floor's first triangle
+    small = np.array([[[x, y, 0], [x + 0.1, y, 0], [x + 0.1, y + 0.1, 0]]
+                      for x in np.linspace(-0.95, -0.05, 8) for y in (0.3, 0.6)])
     raised = tile[:, :, [1, 0, 2]] + np.array([-0.9, 0.0, 0.01])  # facing down, 1 cm up
     wall = quad((-1, -1, 0), (-1, 1, 0), (-1, 1, 1), (-1, -1, 1))
+    rng = np.random.default_rng(3)
     for flipped in (False, True):
         placed = tile[:, ::-1] if flipped else tile
-        triangles = np.concatenate([floor, placed, raised, wall])
-        marked = overlapping_triangles(triangles, other_face_test(triangles, 0.004))
-        assert marked.tolist() == [True, False, True, False, False, False]
+        triangles = np.concatenate([floor, placed, raised, wall, small])
+        triangle = rng.integers(0, len(triangles), 8000)
+        u, v = rng.random((2, 8000, 1))
+        u, v = np.where(u + v > 1, 1 - u, u), np.where(u + v > 1, 1 - v, v)
+        barycentric = np.concatenate([1 - u - v, u, v], axis=1)
+        points = np.einsum("mc,mck->mk", barycentric, triangles[triangle])
+        covered = overlap_test(triangles, 0.004)(triangle, barycentric)
+        assert covered.tolist() == other_face_test(triangles, 0.004)(triangle, points).tolist()
+        under_tile = (points[:, 0] < 0.6) & (points[:, 1] > -0.6) & (points[:, 0] - points[:, 1] > 0.9)
+        assert np.all(covered[triangle == 2]) and np.all(covered[triangle == 0] == under_tile[triangle == 0])
+        assert covered[triangle == 0].sum() > 5  # 2.25% of its area: 8 points expected
+        assert np.all(covered[triangle >= 6]) and 5 < covered[triangle == 1].sum() < 30  # 4%: 15 expected
+        assert not covered[(triangle > 2) & (triangle < 6)].any()
 
 
 def test_of_two_copies_of_a_floor_a_micrometre_apart_the_upper_is_lit_and_the_lower_black():
