@@ -27,7 +27,7 @@ from .geometry import inset
 from .surface_probes import inside_closed_geometry, nearest_uncovered, overlap_test
 
 FRONT = 0
-_COPLANAR_LOCK = threading.Lock()
+_OVERLAPS_LOCK = threading.Lock()
 
 
 @dataclass
@@ -84,7 +84,7 @@ class Solution:
     _field: ReceiverField | None = field(default=None, init=False, repr=False)
     _indirect: np.ndarray | None = field(default=None, init=False, repr=False)
     _to_mesh: np.ndarray | None = field(default=None, init=False, repr=False)
-    _coplanar: Callable | None = field(default=None, init=False, repr=False)
+    _overlap_test: Callable | None = field(default=None, init=False, repr=False)
 
     @property
     def residual(self) -> float:
@@ -98,7 +98,7 @@ class Solution:
         lit = Solution(scene, self.mesh, elements, direct, self.caster, self.offset_m, state.ambient(),
                        state.history, seconds, self.caster.rays_cast, state, self.warnings, dict(self.counts),
                        self.element_size_m)
-        lit._field, lit._to_mesh, lit._coplanar = self._receiver_field(), self._scene_to_mesh(), self._coplanar
+        lit._field, lit._to_mesh, lit._overlap_test = self._receiver_field(), self._scene_to_mesh(), self._overlaps()
         return lit
 
     @property
@@ -217,7 +217,7 @@ class Solution:
         ``gather_samples_per_edge`` s > 0 the indirect irradiance is gathered there too, by s^2 rays
         (core.gather.final_gather, the world by its escaping rays, one light chosen where each lands), instead of
         taken from the element. 0 on dead sides, unsolved triangles, and the fronts of faces where they lie on
-        another face in their plane (``_on_another_face``)."""
+        another face in their plane (``_overlaps``)."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         barycentric = np.asarray(barycentric, dtype=np.float64)
         solved, node = self.pieces(scene_triangle, barycentric)
@@ -239,18 +239,17 @@ class Solution:
                                             exact_lights=exact_lights)
         out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * (irradiance + indirect)
         front = face[alive] == FRONT
-        out[lit[front][self._on_another_face(scene_triangle[lit[front]], barycentric[lit[front]])]] = 0.0
+        out[lit[front][self._overlaps()(scene_triangle[lit[front]], barycentric[lit[front]])]] = 0.0
         return out
 
-    def _on_another_face(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> np.ndarray:
-        """(m,) surface points (scene triangles, (m, 3) barycentrics), on the front of their triangles, that lie on
-        another face in their plane (core.surface_probes.overlap_test, its overlapping triangles found once):
-        Cycles renders them black, its rays from them meeting the other face at distance zero, as the lightmap
-        bakes them."""
-        with _COPLANAR_LOCK:  # chunks of texels lit side by side share it
-            if self._coplanar is None:
-                self._coplanar = overlap_test(self.scene.triangles, 4 * self.offset_m)
-        return self._coplanar(scene_triangle, barycentric)
+    def _overlaps(self):
+        """``on_another_face(scene_triangle, barycentric)``: (m,) surface points that lie on another face in their
+        plane (core.surface_probes.overlap_test of the scene's triangles, built on first use). Cycles renders them
+        black, its rays from them meeting the other face at distance zero, as the lightmap bakes them."""
+        with _OVERLAPS_LOCK:  # chunks of texels lit side by side share it
+            if self._overlap_test is None:
+                self._overlap_test = overlap_test(self.scene.triangles, 4 * self.offset_m)
+        return self._overlap_test
 
     def pieces(self, scene_triangle: np.ndarray, barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Solved mask (m,) of surface points, and for the solved ones the mesh leaf (piece) under each."""

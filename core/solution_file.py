@@ -23,7 +23,7 @@ def save_solution(solution: Solution, path: str) -> None:
     """Write ``solution`` to ``path`` atomically (core.staged_files): a file written in full replaces the old one,
     or nothing changes and OutputError names the file."""
     saved = copy.copy(solution)
-    saved.state, saved._coplanar = None, None  # the solver's working state; a test of planes rebuilt on use
+    saved.state, saved._overlap_test = None, None  # the solver's working state; a test rebuilt on use
     with StagedFiles() as staged:
         staged.stage(path, pickle_writer({"format": FORMAT, "version": VERSION, "solution": saved}))
         staged.commit()

@@ -15,7 +15,7 @@ from .ragged import budget_ranges, concatenated_ranges, row_groups
 from .raycast import RayCaster
 
 CANDIDATES_PER_CHUNK = 4_000_000
-POINTS_PER_CELL = 8  # inside_any_triangle's grid
+POINTS_PER_CELL = 8  # triangles_containing's grid
 GRID_CELLS_PER_AXIS = 2048  # at most, so that a long thin row of points does not make a huge grid
 TANGENT_RAYS = 8
 TANGENT_ANGLES = np.arange(TANGENT_RAYS) * 2 * np.pi / TANGENT_RAYS  # 45 degree steps in the tangent plane
@@ -268,10 +268,7 @@ def triangle_planes(triangles_m: np.ndarray, tolerance_m: float) -> tuple[np.nda
 
 def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray,
                         behind_m: float | np.ndarray, own: np.ndarray | None = None) -> np.ndarray:
-    """(p,) whether each point (near the triangles' plane) lies inside any of the (q, 3, 3) triangles whose plane
-    is at most ``behind_m`` (one for all, or (q,) one per triangle) behind it along its unit normal (all points
-    share one plane), other than the one ``own`` (p,) gives it (an index into ``triangles``; or none): see
-    ``triangles_containing``."""
+    """(p,) whether each point lies inside any of the triangles: ``triangles_containing``'s points."""
     inside = np.zeros(len(points), dtype=bool)
     for point, _ in triangles_containing(points, normals, triangles, behind_m, own):
         inside[point] = True
@@ -280,10 +277,12 @@ def inside_any_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.n
 
 def triangles_containing(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray,
                          behind_m: float | np.ndarray, own: np.ndarray | None = None):
-    """``inside_any_triangle``'s pairs: yields (point, triangle) index arrays, each point with a triangle it lies
-    in, a bounded number at a time. Points are binned on a grid in that plane, POINTS_PER_CELL to a cell on
-    average, and each triangle is tested only against the points of the cells its bounding box overlaps: the work
-    follows the overlap, not points x triangles."""
+    """Yields (point, triangle) index arrays, a bounded number at a time: each point (near the triangles' plane)
+    with each of the (q, 3, 3) triangles it lies inside whose plane is at most ``behind_m`` (one for all, or (q,)
+    one per triangle) behind it along its unit normal (all points share one plane), other than the one ``own``
+    (p,) gives it (an index into ``triangles``; or none). Points are binned on a grid in that plane,
+    POINTS_PER_CELL to a cell on average, and each triangle is tested only against the points of the cells its
+    bounding box overlaps: the work follows the overlap, not points x triangles."""
     if len(points) == 0 or len(triangles) == 0:
         return
     axes = tangent_frames(normals[:1])[0, :2]
