@@ -234,15 +234,9 @@ def overlap_test(scene_triangles_m: np.ndarray, tolerance_m: float):
 def _partner_cells(scene_triangles_m, mine, partner, side, first_cell) -> tuple[np.ndarray, np.ndarray]:
     """(cell, pair) sorted by cell: each pair (``mine``, ``partner``) in every cell of ``mine``'s side x side grid
     over its (u, v) barycentrics that the partner's bounding box in those coordinates overlaps."""
-    own = scene_triangles_m[mine]
-    e1, e2 = own[:, 1] - own[:, 0], own[:, 2] - own[:, 0]
-    d11, d12, d22 = (np.einsum("nk,nk->n", e1, e1), np.einsum("nk,nk->n", e1, e2), np.einsum("nk,nk->n", e2, e2))
-    det = np.where(np.abs(d11 * d22 - d12 * d12) > 1e-300, d11 * d22 - d12 * d12, np.inf)[:, None]
-    rel = scene_triangles_m[partner] - own[:, :1]
-    r1, r2 = np.einsum("nck,nk->nc", rel, e1), np.einsum("nck,nk->nc", rel, e2)
     grid = side[mine]
     low, high = [], []
-    for coordinate in ((d22[:, None] * r1 - d12[:, None] * r2) / det, (d11[:, None] * r2 - d12[:, None] * r1) / det):
+    for coordinate in _edge_coordinates(scene_triangles_m[mine], scene_triangles_m[partner])[:2]:
         low.append(np.clip(np.floor(coordinate.min(axis=1) * grid), 0, grid - 1).astype(np.int64))
         high.append(np.clip(np.floor(coordinate.max(axis=1) * grid), 0, grid - 1).astype(np.int64))
     across, up = high[0] - low[0] + 1, high[1] - low[1] + 1
@@ -332,18 +326,27 @@ def _inside_pairs(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray
     """(n,) for (point, triangle) pairs: the point projects inside the triangle (barycentrics by the normal
     equations of its edges), whose plane lies at most ``behind_m`` (one, or one per pair) behind the point along
     its unit normal (measured to the triangle's own plane, which round-off may tilt)."""
-    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
-    d11, d12, d22 = (np.einsum("nk,nk->n", e1, e1), np.einsum("nk,nk->n", e1, e2), np.einsum("nk,nk->n", e2, e2))
-    det = d11 * d22 - d12 * d12
-    det = np.where(np.abs(det) > 1e-300, det, np.inf)
-    rel = points - triangles[:, 0]
-    r1, r2 = np.einsum("nk,nk->n", rel, e1), np.einsum("nk,nk->n", rel, e2)
-    u, v = (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
-    plane_normal = np.cross(e1, e2)
+    u, v, rel = _edge_coordinates(triangles, points)
+    plane_normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     along = np.einsum("nk,nk->n", plane_normal, normals)
     along = np.where(np.abs(along) > 1e-300, along, np.inf)
     height = np.einsum("nk,nk->n", rel, plane_normal) / along  # > 0: the triangle's plane is behind
     return (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (height <= behind_m)
+
+
+def _edge_coordinates(triangles: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(u, v, rel) of points, (n, 3) or (n, c, 3), in the planes of (n, 3, 3) triangles: the point projects to
+    corner 0 + u e1 + v e2 (e1, e2 the edges from corner 0; by the normal equations of the edges), and rel is the
+    point less corner 0."""
+    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    d11, d12, d22 = (np.einsum("nk,nk->n", e1, e1), np.einsum("nk,nk->n", e1, e2), np.einsum("nk,nk->n", e2, e2))
+    det = d11 * d22 - d12 * d12
+    det = np.where(np.abs(det) > 1e-300, det, np.inf)
+    per_point = (slice(None),) + (None,) * (points.ndim - 2)  # (n,) quantities against (n, c) points
+    rel = points - triangles[:, 0][per_point]
+    r1, r2 = np.einsum("n...k,nk->n...", rel, e1), np.einsum("n...k,nk->n...", rel, e2)
+    d11, d12, d22, det = d11[per_point], d12[per_point], d22[per_point], det[per_point]
+    return (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det, rel
 
 
 def tangent_rays(points: np.ndarray, normals: np.ndarray, offset_m: float) -> tuple[np.ndarray, np.ndarray]:
