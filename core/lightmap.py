@@ -21,8 +21,8 @@ from .geometry import inset, lengths, triangle_areas
 from .scene import PointLight, SpotLight, SunLight
 from .surface_probes import (buried_in_geometry, covered_within, inside_closed_geometry, other_face_test,
                              push_out_of_geometry)
-from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, rasterize, sample_points,
-                     subcell_order)
+from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, footprint_unfolded, rasterize,
+                     sample_points, subcell_order)
 
 INDIRECT_METHODS = ("auto", "gather", "interpolate")
 # Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
@@ -38,6 +38,7 @@ PENUMBRA_SAMPLES_PER_EDGE = 2
 SHARP_EDGE_SAMPLES_PER_EDGE = 3
 LIGHT_SOURCES = 8  # of shadows whose edges are found apart (_light_sources): the memory of so many lit at once
 GATHER_ORDER_STREAM = 1  # the random stream, beside the gather's directions', that orders its points
+SLIVER_GRID = 4  # texels reaching fewer than s of their s x s gather points take them from a grid so much finer
 SAME_SURFACE_COSINE = 0.999  # neighbouring texels whose faces' normals agree this well lie on one surface
 
 
@@ -328,17 +329,42 @@ def _gather_points(solution, plan: TexelPlan, chunk: slice, seed: int) -> np.nda
     cell of the k x k grid is (``plan.dark``), in a seeded order per texel (so that a point's place on the texel
     and its ray's direction are unrelated), those outside the triangle or dark replaced by the others in turn.
     Rays taking the k x k points in turn let a strip a few centimetres wide, that one column of k points falls
-    in, stand for 1/k of the texel (a narrow gap beside a face in front of the texel, open to bright light)."""
-    s, k = plan.settings.gather_samples_per_edge, plan.settings.subtexel_samples_per_edge
-    barycentric, steps = plan.barycentric[chunk], plan.steps[chunk]
-    points, _ = _footprint_points(solution.scene.triangles[plan.tri[chunk]], barycentric, steps, s,
-                                  plan.points[chunk], plan.moved[chunk], 4 * solution.offset_m)
-    column, row = np.divmod(np.arange(s * s), s)
-    inside = footprint_inside(barycentric, steps, s)
-    reached = inside & ~plan.dark[chunk][:, (column * k // s) * k + row * k // s]
-    reached = np.where(reached.any(axis=1)[:, None], reached, inside)
-    order = np.argsort(np.random.default_rng([seed, GATHER_ORDER_STREAM]).random(reached.shape), axis=1)
-    return _in_turn(np.take_along_axis(points, order[..., None], axis=1), np.take_along_axis(reached, order, axis=1))
+    in, stand for 1/k of the texel (a narrow gap beside a face in front of the texel, open to bright light).
+    Where fewer than s of the grid's points are reached (a sliver triangle across the texel, one point of it often
+    below a floor or inside the next arch), the points come from a grid SLIVER_GRID times finer, spread over the
+    sliver as Cycles' samples, drawn again until they fall in the triangle, are."""
+    s = plan.settings.gather_samples_per_edge
+    barycentric, steps, moved, dark = plan.barycentric[chunk], plan.steps[chunk], plan.moved[chunk], plan.dark[chunk]
+    triangles = solution.scene.triangles[plan.tri[chunk]]
+    inset_m = 4 * solution.offset_m
+    rng = np.random.default_rng([seed, GATHER_ORDER_STREAM])
+    points, _ = _footprint_points(triangles, barycentric, steps, s, plan.points[chunk], moved, inset_m)
+    reached = _reached(footprint_inside(barycentric, steps, s), dark)
+    points = _in_random_turn(points, reached, rng)
+    sliver = np.flatnonzero((reached.sum(axis=1) < s) & ~moved)
+    unfolded = footprint_unfolded(barycentric[sliver], steps[sliver], s * SLIVER_GRID)
+    inside = (unfolded >= 0.0).all(axis=-1)
+    finer = _in_random_turn(unfolded, _reached(inside, dark[sliver]), rng)[:, :s * s]
+    found = inside.any(axis=1)
+    corners = triangles[sliver[found]]
+    points[sliver[found]] = inset(np.einsum("mqc,mck->mqk", finer[found], corners), corners.mean(axis=1)[:, None, :],
+                                  inset_m)
+    return points
+
+
+def _reached(inside: np.ndarray, dark: np.ndarray) -> np.ndarray:
+    """(m, n^2) the points of an n x n footprint grid (``inside`` their triangle) that Cycles' samples reach and
+    see light at: those whose cell of the k x k grid is not ``dark`` (m, k^2); all those inside where none is."""
+    n, k = int(round(np.sqrt(inside.shape[1]))), int(round(np.sqrt(dark.shape[1])))
+    column, row = np.divmod(np.arange(n * n), n)
+    reached = inside & ~dark[:, (column * k // n) * k + row * k // n]
+    return np.where(reached.any(axis=1)[:, None], reached, inside)
+
+
+def _in_random_turn(values: np.ndarray, reached: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``_in_turn`` of (m, q, d) ``values`` in a random order per texel."""
+    order = np.argsort(rng.random(reached.shape), axis=1)
+    return _in_turn(np.take_along_axis(values, order[..., None], axis=1), np.take_along_axis(reached, order, axis=1))
 
 
 def _in_turn(sub_points: np.ndarray, reached: np.ndarray) -> np.ndarray:

@@ -127,7 +127,7 @@ def footprint_barycentrics(barycentric: np.ndarray, steps: np.ndarray, samples_p
     texel's mean (the footprint's part inside the triangle, as Cycles takes it), so that a texel holds its
     footprint's mean rather than one point's value. Texels only partly covered (steps zero) keep their one point.
     Point i * k + j lies in column i, row j of the texel's k x k cells (``subcell_order`` splits them further)."""
-    return _fold_into_triangle(_unfolded(barycentric, steps, samples_per_edge))
+    return _fold_into_triangle(footprint_unfolded(barycentric, steps, samples_per_edge))
 
 
 def footprint_inside(barycentric: np.ndarray, steps: np.ndarray, samples_per_edge: int) -> np.ndarray:
@@ -135,7 +135,7 @@ def footprint_inside(barycentric: np.ndarray, steps: np.ndarray, samples_per_edg
     Cycles draws a texel's samples over its square again until they fall in its triangle (bake_jitter_barycentric
     in its kernel, Blender 3.6 on), so a texel that crosses its triangle's edge holds the mean over the part
     inside."""
-    return (_unfolded(barycentric, steps, samples_per_edge) >= 0.0).all(axis=-1)
+    return (footprint_unfolded(barycentric, steps, samples_per_edge) >= 0.0).all(axis=-1)
 
 
 def subcell_order(samples_per_edge: int, split: int) -> np.ndarray:
@@ -146,8 +146,9 @@ def subcell_order(samples_per_edge: int, split: int) -> np.ndarray:
     return np.argsort(cell, kind="stable").reshape(samples_per_edge ** 2, split ** 2)
 
 
-def _unfolded(barycentric: np.ndarray, steps: np.ndarray, samples_per_edge: int) -> np.ndarray:
-    """(m, k^2, 3) barycentrics of the k x k points over each texel's footprint, outside the triangle or not."""
+def footprint_unfolded(barycentric: np.ndarray, steps: np.ndarray, samples_per_edge: int) -> np.ndarray:
+    """(m, k^2, 3) barycentrics of the k x k points over each texel's footprint, outside the triangle (a
+    negative barycentric) or not."""
     return barycentric[:, None, :] + np.einsum("qa,mak->mqk", _cell_offsets(samples_per_edge), steps)
 
 
