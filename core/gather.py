@@ -83,35 +83,40 @@ def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.nd
     that has none of the choice's noise at those hits (the second gather near by keeps one lamp per ray: it
     casts most of the shadow rays and brings the least light). Chunks of at most RAYS_PER_CHUNK rays (bounded
     memory), ``workers`` of them side by side (core.parallel), each seeded by its first point."""
-    light, variance = final_gather_parts([solution], caster, points, normals, samples_per_edge, offset_m, seed,
-                                         face_normals, near_m, near_samples_per_edge, workers, exact_lights)
+    light, variance, _ = final_gather_parts([solution], caster, points, normals, samples_per_edge, offset_m, seed,
+                                            face_normals, near_m, near_samples_per_edge, workers, exact_lights)
     return light[0], variance
 
 
 def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
                        samples_per_edge: int, offset_m: float, seed: int, face_normals: np.ndarray | None = None,
                        near_m: float = 0.0, near_samples_per_edge: int = 0, workers: int = 1,
-                       exact_lights: int = 0, min_chunks: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                       exact_lights: int = 0, min_chunks: int = 1,
+                       close_m: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``final_gather`` of several solutions of the same surfaces, lit by parts of the light (light groups,
-    core.bake.bake_light_groups), along the same rays: (G, m, 3) each one's light, and the (m, 3) variance of the
-    mean of their sum (the rays' sample variance of the summed light over their count). The points are split into
+    core.bake.bake_light_groups), along the same rays: (G, m, 3) each one's light, the (m, 3) variance of the
+    mean of their sum (the rays' sample variance of the summed light over their count), and the (m,) share of
+    each point's rays that land within its ``close_m`` (a scalar or (m,); the denoiser's guide, core.denoise).
+    The points are split into
     at least ``min_chunks`` chunks where there are that many, so that one call's chunks can fill ``workers``
     (a fixed number, not ``workers``: the chunks seed the rays, and the result must not depend on the machine)."""
     rays = samples_per_edge ** 2
     step = max(1, min(RAYS_PER_CHUNK // rays, -(-len(points) // min_chunks)))
     faces = normals if face_normals is None else face_normals
     chunks = [slice(start, min(start + step, len(points))) for start in range(0, len(points), step)]
+    close_m = np.broadcast_to(close_m, len(points))
     gathered = lambda chunk: _gather_chunk(solutions, caster, points[chunk], normals[chunk], faces[chunk],
                                            samples_per_edge, offset_m, seed + chunk.start, near_m,
-                                           near_samples_per_edge, exact_lights)
+                                           near_samples_per_edge, exact_lights, close_m[chunk])
     light, variance = np.zeros((len(solutions), len(points), 3)), np.zeros((len(points), 3))
-    for chunk, (chunk_light, chunk_variance) in zip(chunks, ordered_map(gathered, chunks, workers)):
-        light[:, chunk], variance[chunk] = chunk_light, chunk_variance
-    return light, variance
+    close_share = np.zeros(len(points))
+    for chunk, parts in zip(chunks, ordered_map(gathered, chunks, workers)):
+        light[:, chunk], variance[chunk], close_share[chunk] = parts
+    return light, variance, close_share
 
 
 def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_edge, offset_m, seed, near_m,
-                  near_samples_per_edge, exact_lights):
+                  near_samples_per_edge, exact_lights, close_m):
     solution = solutions[0]  # the surfaces are the same in each
     count, rays = len(points), samples_per_edge ** 2
     local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
@@ -124,17 +129,17 @@ def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_
     landed = np.flatnonzero((hit >= 0) & above)
     side = (np.einsum("mk,mk->m", solution.scene.unit_normals[hit[landed]], directions[landed]) > 0)
     side = side.astype(np.int64)
-    near = np.zeros(len(landed), dtype=bool)
-    if near_m > 0 and near_samples_per_edge > 0:
-        hit_points = np.einsum("mc,mck->mk", bary[landed], triangles[hit[landed]])
-        near = lengths(hit_points - origins[landed]) < near_m
-    far, close = landed[~near], landed[near]
+    distance = lengths(np.einsum("mc,mck->mk", bary[landed], triangles[hit[landed]]) - origins[landed])
+    near = distance < near_m if near_samples_per_edge > 0 else np.zeros(len(landed), dtype=bool)
+    close = np.zeros(len(hit), dtype=bool)
+    close[landed] = distance < np.repeat(close_m, rays)[landed]
+    far, again = landed[~near], landed[near]
     radiosity = np.zeros((len(solutions), len(hit), 3))
     for part, lit in zip(radiosity, solutions):
         part[far] = lit.reflected_radiosity(hit[far], bary[far], side[~near], seed, exact_lights=exact_lights)
-        if len(close):
-            part[close] = lit.reflected_radiosity(hit[close], bary[close], side[near], seed + len(hit),
+        if len(again):
+            part[again] = lit.reflected_radiosity(hit[again], bary[again], side[near], seed + len(hit),
                                                   near_samples_per_edge, exact_lights)
         part[(hit < 0) & above] = np.pi * np.asarray(lit.scene.world.radiance, dtype=np.float64)
     per_ray = radiosity.reshape(len(solutions), count, rays, 3) / np.pi
-    return per_ray.mean(axis=2), per_ray.sum(axis=0).var(axis=1) / rays
+    return per_ray.mean(axis=2), per_ray.sum(axis=0).var(axis=1) / rays, close.reshape(count, rays).mean(axis=1)

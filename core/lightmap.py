@@ -39,6 +39,10 @@ SHARP_EDGE_SAMPLES_PER_EDGE = 3
 LIGHT_SOURCES = 8  # of shadows whose edges are found apart (_light_sources): the memory of so many lit at once
 GATHER_ORDER_STREAM = 1  # the random stream, beside the gather's directions', that orders its points
 SLIVER_GRID = 4  # texels reaching fewer than s of their s x s gather points take them from a grid so much finer
+# The denoiser keeps apart texels whose gather rays land within this many texels in shares that differ by more
+# than their noise (a soffit's corner that runs into the next arch beside its open span): docs/benchmarks.md,
+# "Denoising guided by the gather's close hits".
+CLOSE_TEXELS = 4.0
 SAME_SURFACE_COSINE = 0.999  # neighbouring texels whose faces' normals agree this well lie on one surface
 
 
@@ -88,22 +92,24 @@ class Lightmap:
 @dataclass
 class TexelLight:
     """The light of a page's texels (or of one chunk's), irradiance / pi, for G lightings of the scene (1, or its
-    light groups): direct (G, m, 3) (with the world's light when it is not gathered), indirect (G, m, 3), and the
-    (m, 3) variance of the mean of the gathered indirect light, summed over the lightings (0 where it is
-    interpolated)."""
+    light groups): direct (G, m, 3) (with the world's light when it is not gathered), indirect (G, m, 3), the
+    (m, 3) variance of the mean of the gathered indirect light, summed over the lightings, and the (m,) share of
+    the gather's rays that land within CLOSE_TEXELS texels (the denoiser's guide; both 0 where the indirect light
+    is interpolated)."""
 
     direct: np.ndarray
     indirect: np.ndarray
     indirect_variance: np.ndarray
+    close_share: np.ndarray
 
     @classmethod
     def zeros(cls, texel_count: int, lightings: int = 1) -> TexelLight:
-        return cls(*np.zeros((2, lightings, texel_count, 3)), np.zeros((texel_count, 3)))
+        return cls(*np.zeros((2, lightings, texel_count, 3)), np.zeros((texel_count, 3)), np.zeros(texel_count))
 
     def put(self, texels: slice, part: TexelLight) -> None:
         """Store a chunk's light at its texels."""
         self.direct[:, texels], self.indirect[:, texels] = part.direct, part.indirect
-        self.indirect_variance[texels] = part.indirect_variance
+        self.indirect_variance[texels], self.close_share[texels] = part.indirect_variance, part.close_share
 
 
 @dataclass
@@ -267,19 +273,18 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     timer.lap("direct")
     if gather:
         seed = settings.seed + first_texel
-        indirect, variance = final_gather_parts(lightings, solution.caster, _gather_points(solution, plan, chunk, seed),
-                                                scene.shading_normals(tri, barycentric),
-                                                settings.gather_samples_per_edge, solution.offset_m, seed,
-                                                face_normals=normals,
-                                                near_m=NEAR_ELEMENTS * solution.element_size_m,
-                                                near_samples_per_edge=NEAR_SAMPLES_PER_EDGE)
+        indirect, variance, close_share = final_gather_parts(
+            lightings, solution.caster, _gather_points(solution, plan, chunk, seed),
+            scene.shading_normals(tri, barycentric), settings.gather_samples_per_edge, solution.offset_m, seed,
+            face_normals=normals, near_m=NEAR_ELEMENTS * solution.element_size_m,
+            near_samples_per_edge=NEAR_SAMPLES_PER_EDGE, close_m=CLOSE_TEXELS * plan.texel_m[chunk])
     else:
         buried = _inside(solution, points, normals, sub_points)
         indirect = np.stack([_footprint_mean(scene, np.where(buried[..., None], 0.0, lit.indirect_light(
             points, normals, tri, barycentric)[:, None, :]), tri, sub_bary, reached) for lit in lightings])
-        variance = np.zeros_like(indirect[0])
+        variance, close_share = np.zeros_like(indirect[0]), np.zeros(c)
     timer.lap("indirect")
-    return TexelLight(direct, indirect, variance)
+    return TexelLight(direct, indirect, variance, close_share)
 
 
 def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict | None = None,
@@ -290,7 +295,8 @@ def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict 
     indirect = light.indirect
     if plan.settings.indirect == "gather" and plan.settings.denoise:
         indirect = denoise_gathered(plan.pixel, plan.width, plan.height, plan.points, plan.normals, plan.texel_m,
-                                    indirect.sum(axis=0), light.indirect_variance, parts=indirect)
+                                    indirect.sum(axis=0), light.indirect_variance, parts=indirect,
+                                    guide=(light.close_share, plan.settings.gather_samples_per_edge ** 2))
     height, width = plan.height, plan.width
     covered = np.zeros(height * width, dtype=bool)
     covered[plan.pixel] = True

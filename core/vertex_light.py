@@ -78,11 +78,11 @@ def corner_light(solution, scene_triangle: np.ndarray, barycentric: np.ndarray, 
     light = np.zeros((len(parts), len(first), 3))
     near_m = NEAR_ELEMENTS * solution.element_size_m
     here, rest = np.flatnonzero(gathered), np.flatnonzero(~gathered)
-    indirect, _ = final_gather_parts(parts, solution.caster, point[here][:, None, :], shade[here],
-                                     gather_samples_per_edge, solution.offset_m, seed, face_normals=face[here],
-                                     near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE,
-                                     workers=steps_in_flight(solution.caster.threads),
-                                     exact_lights=EXACT_LIGHTS_PER_HIT, min_chunks=MAX_STEPS_IN_FLIGHT)
+    indirect, _, _ = final_gather_parts(parts, solution.caster, point[here][:, None, :], shade[here],
+                                       gather_samples_per_edge, solution.offset_m, seed, face_normals=face[here],
+                                       near_m=near_m, near_samples_per_edge=NEAR_SAMPLES_PER_EDGE,
+                                       workers=steps_in_flight(solution.caster.threads),
+                                       exact_lights=EXACT_LIGHTS_PER_HIT, min_chunks=MAX_STEPS_IN_FLIGHT)
     for part, part_light, part_indirect in zip(parts, light, indirect):
         part_light[here] = part.output_light(part.direct_light(
             point[here], shade[here], triangle[here], moved[first][here], world=False) + part_indirect,
