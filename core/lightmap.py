@@ -338,7 +338,7 @@ def _gather_points(solution, plan: TexelPlan, chunk: slice, seed: int) -> np.nda
     in, stand for 1/k of the texel (a narrow gap beside a face in front of the texel, open to bright light).
     Where fewer than s of the grid's points are reached (a sliver triangle across the texel, one point of it often
     below a floor or inside the next arch), the points come from a grid SLIVER_GRID times finer, spread over the
-    sliver as Cycles' samples, drawn again until they fall in the triangle, are."""
+    sliver as Cycles' samples are (it draws each again until it falls in the triangle)."""
     s = plan.settings.gather_samples_per_edge
     barycentric, steps, moved, dark = plan.barycentric[chunk], plan.steps[chunk], plan.moved[chunk], plan.dark[chunk]
     triangles = solution.scene.triangles[plan.tri[chunk]]
