@@ -97,9 +97,9 @@ def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, n
     core.bake.bake_light_groups), along the same rays: (G, m, 3) each one's light, the (m, 3) variance of the
     mean of their sum (the rays' sample variance of the summed light over their count), and the (m,) share of
     each point's rays that land within its ``close_m`` (a scalar or (m,); the denoiser's guide, core.denoise).
-    The points are split into
-    at least ``min_chunks`` chunks where there are that many, so that one call's chunks can fill ``workers``
-    (a fixed number, not ``workers``: the chunks seed the rays, and the result must not depend on the machine)."""
+    The points are split into at least ``min_chunks`` chunks where there are that many, so that one call's chunks
+    can fill ``workers`` (a fixed number, not ``workers``: the chunks seed the rays, and the result must not depend
+    on the machine)."""
     rays = samples_per_edge ** 2
     step = max(1, min(RAYS_PER_CHUNK // rays, -(-len(points) // min_chunks)))
     faces = normals if face_normals is None else face_normals

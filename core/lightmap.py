@@ -41,7 +41,7 @@ GATHER_ORDER_STREAM = 1  # the random stream, beside the gather's directions', t
 SLIVER_GRID = 4  # texels reaching fewer than s of their s x s gather points take them from a grid so much finer
 # The denoiser keeps apart texels whose gather rays land within this many texels in shares that differ by more
 # than their noise (a soffit's corner that runs into the next arch beside its open span): docs/benchmarks.md,
-# "Denoising guided by the gather's close hits".
+# History "Slivers gather over the sliver; the denoiser guided by close hits".
 CLOSE_TEXELS = 4.0
 SAME_SURFACE_COSINE = 0.999  # neighbouring texels whose faces' normals agree this well lie on one surface
 
