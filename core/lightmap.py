@@ -267,8 +267,7 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     gather = settings.indirect == "gather"  # its rays bring the world's light
     lightings = list(groups.values()) if groups else [solution]
     in_triangle = footprint_inside(barycentric, plan.steps[chunk], settings.subtexel_samples_per_edge)
-    reached = in_triangle & ~plan.dark[chunk]  # a texel wholly dark keeps its points: its light is zeroed
-    reached = np.where(reached.any(axis=1)[:, None], reached, in_triangle)
+    reached = _reached(in_triangle, plan.dark[chunk])  # a texel wholly dark keeps its points: its light is zeroed
     direct = _direct_light(lightings, plan, chunk, shading, reached, world=not gather)
     timer.lap("direct")
     if gather:
