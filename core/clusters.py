@@ -4,8 +4,10 @@ The receiving triangles are first cut into pieces no longer than the element siz
 floor triangle becomes a grid of pieces, a small one stays whole). Pieces are then grouped into elements, as face
 cluster radiosity groups faces (Willmott, Heckbert & Garland 1999):
 
-- pieces at least half the element size long stay elements of their own (a big wall's grid of pieces);
-- smaller pieces group by a grid cell of the element size and a bin of their normal direction (24 bins: a cube
+- pieces at least half the element size long and of at least the area of a right triangle with such legs stay
+  elements of their own (a big wall's grid of pieces);
+- smaller pieces, and slivers (a 3 m strip of moulding 2 cm wide, cut into pieces no longer than the element
+  size, would otherwise make dozens of elements of a few square centimetres each), group by a grid cell of the element size and a bin of their normal direction (24 bins: a cube
   face and a quadrant of it), so an element is about as large as the element size and turns one way;
 - then split wherever a piece cannot see its cluster's centre (a ray between the two, lifted off the surface by
   a quarter of the element size, but at most half way to the surface in front of it, is blocked): no element
@@ -34,7 +36,8 @@ NORMAL_BINS_PER_AXIS = 2    # 6 cube faces x 2 x 2 normal-direction bins
 VISIBILITY_ROUNDS = 3       # re-clustering rounds for pieces that cannot see their cluster's centre
 LIFT_FRACTION = 0.25        # of the element size: how far the visibility test lifts points off the surface
 LIFT_GAP_SHARE = 0.5        # of the distance to the surface in front of a piece: the most the test lifts it
-SMALL_PIECE = 0.5           # pieces whose longest edge is below this share of the element size are clustered
+SMALL_PIECE = 0.5           # pieces shorter than this share of the element size, or of less area than a right
+                            # triangle with legs that long (slivers), are clustered
 
 
 @dataclass
@@ -81,6 +84,13 @@ def normal_bins(normals: np.ndarray) -> np.ndarray:
     return (face * NORMAL_BINS_PER_AXIS + cells[:, 0]) * NORMAL_BINS_PER_AXIS + cells[:, 1]
 
 
+def stands_alone(longest_edge_m: np.ndarray, area_m2: np.ndarray, element_size_m) -> np.ndarray:
+    """Which pieces (their longest edges and areas) are elements of their own at the element size: those at
+    least SMALL_PIECE of it long and of at least the area of a right triangle with legs that long."""
+    least = SMALL_PIECE * np.asarray(element_size_m)
+    return (longest_edge_m >= least) & (area_m2 >= 0.5 * least ** 2)
+
+
 def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_size_m, offset_m: float,
                    piece_reflectance: np.ndarray, nodes: np.ndarray | None = None) -> FaceClusters:
     """Group the mesh's leaves (or the given nodes) into elements of about ``element_size_m`` (see the module
@@ -95,8 +105,7 @@ def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_s
     centroid = corners.mean(axis=1)
     origin = centroid.min(axis=0) if len(centroid) else np.zeros(3)
     cell = np.floor((centroid - origin) / size[:, None]).astype(np.int64)
-    longest = longest_edges(corners)
-    alone = np.where(longest >= SMALL_PIECE * size, np.arange(len(nodes)), -1)
+    alone = np.where(stands_alone(longest_edges(corners), area, size), np.arange(len(nodes)), -1)
     level = np.round(np.log2(size.max() / size)).astype(np.int64) if len(size) else np.zeros(0, np.int64)
     key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None], level[:, None]], axis=1)
     element, _ = row_groups(key)

@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .adaptive_elements import ADAPTIVE_GROWTH
-from .clusters import SMALL_PIECE, normal_bins
+from .clusters import normal_bins, stands_alone
 from .errors import SceneError
-from .geometry import longest_edges, triangle_unit_normals
+from .geometry import longest_edges, triangle_areas, triangle_unit_normals
 from .parallel import steps_in_flight
 from .ragged import row_groups
 
@@ -107,8 +107,8 @@ def element_count(triangles_m: np.ndarray, element_size_m: float) -> int:
     close in front of others, at least 11% on the 250k courtyard at Draft; the peaks measured stay under the
     estimate, docs/benchmarks.md)."""
     pieces = piece_counts(triangles_m, element_size_m)
-    longest = longest_edges(triangles_m)
-    alone = longest / np.sqrt(pieces) >= SMALL_PIECE * element_size_m
+    alone = stands_alone(longest_edges(triangles_m) / np.sqrt(pieces), triangle_areas(triangles_m) / pieces,
+                         element_size_m)
     small = ~alone
     centroid = triangles_m[small].mean(axis=1)
     origin = centroid.min(axis=0) if len(centroid) else np.zeros(3)
