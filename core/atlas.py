@@ -35,6 +35,26 @@ class ChartBlock:
     height: int
 
 
+def chart_areas(corner_texels: np.ndarray) -> np.ndarray:
+    """(c,) the area in texels^2 of each chart of a UV map ((t, 3, 2) corner UVs in texels): charts are the
+    triangles joined through corners at the same UV (connected components, found by propagating the smallest
+    corner label with pointer jumping)."""
+    if len(corner_texels) == 0:
+        return np.zeros(0)
+    _, corner = np.unique(corner_texels.reshape(-1, 2), axis=0, return_inverse=True)
+    corner = corner.reshape(-1, 3)
+    label = np.arange(corner.max() + 1)
+    while True:
+        joined = label.copy()
+        np.minimum.at(joined, corner.ravel(), np.repeat(label[corner].min(axis=1), 3))
+        joined = joined[joined]
+        if np.array_equal(joined, label):
+            break
+        label = joined
+    _, chart = np.unique(label[corner[:, 0]], return_inverse=True)
+    return np.bincount(chart.ravel(), weights=triangle_areas(np.pad(corner_texels, [(0, 0), (0, 0), (0, 1)])))
+
+
 class SettlingAtlases:
     """Keeps each xatlas atlas for ATLAS_SETTLE_S after its generate() before freeing it.
 

@@ -21,8 +21,8 @@ import bpy
 import numpy as np
 
 from ..core import OutputError, SceneError
-from ..core.atlas import (AtlasLayout, AtlasSize, layout_atlas, modifier_uv_problem, overlapping_share,
-                          pages_without_overlap, uv_area)
+from ..core.atlas import (AtlasLayout, AtlasSize, chart_areas, layout_atlas, modifier_uv_problem,
+                          overlapping_share, pages_without_overlap, uv_area)
 from ..core.geometry import triangle_areas
 from ..core.image_file import HALF_MAX, check_image, write_exr, write_png
 from ..core.staged_files import StagedFiles
@@ -33,6 +33,7 @@ OWNED_UV = "radiosity_lightmap_uv"
 OWNED_IMAGE = "radiosity_lightmap"
 OFFSET_PROPERTY = "radiosity_lightmap_offset"
 PAGE_PROPERTY = "radiosity_lightmap_page"
+SMALL_CHART_TEXELS = 4.0  # an object whose median chart covers fewer texels (2 x 2) gets a warning
 SELF_OVERLAP_WARNING = 0.1  # overlapping share of an existing UV map worth a warning (above chart-border slack)
 NOTHING_TO_BAKE = "Nothing to bake into a lightmap: no visible mesh object is set to 'Bake'."
 
@@ -50,6 +51,7 @@ class LightmapPlan:
     user: UserSettings
     mesh_uvs: dict[str, tuple[np.ndarray, np.ndarray]]
     uv_offsets: list[np.ndarray | None]
+    chart_texels: list[np.ndarray]
     warnings: list[str] = field(default_factory=list)
     light_groups: tuple[str, ...] = ()
 
@@ -91,8 +93,10 @@ def plan_lightmap(context, export: Export, user: UserSettings, size: AtlasSize,
         warnings += [f"Object '{objects[index].name}' gets no lightmap: {problem}; apply them, or bake vertex "
                      "colours." for index, problem in problems.items()]
         objects = [item for index, item in enumerate(objects) if index not in problems]
+    charts = _chart_texels(rendered_uv, layout)
     return checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
-                                 mesh_uvs, uv_offsets, warnings, light_groups))
+                                 mesh_uvs, uv_offsets, charts, warnings + _small_chart_warnings(objects, charts),
+                                 light_groups))
 
 
 def _plan_on_existing_uv_map(context, export: Export, user: UserSettings, size: AtlasSize,
@@ -120,9 +124,27 @@ def _plan_on_existing_uv_map(context, export: Export, user: UserSettings, size: 
     side = size.existing_uv_side(areas_m2, areas_uv)
     page = pages_without_overlap(rendered_uv, side, side)
     layout = AtlasLayout(rendered_uv, page, side, side, float(side * np.sqrt(areas_uv.sum() / areas_m2.sum())))
-    warnings = _existing_uv_warnings(objects, rendered_uv, uv_map, side)
+    charts = _chart_texels(rendered_uv, layout)
+    warnings = _existing_uv_warnings(objects, rendered_uv, uv_map, side) + _small_chart_warnings(objects, charts)
     return checked(LightmapPlan(objects, layout, _page_triangles(export, objects, rendered_uv, layout), user,
-                                 {}, [None] * len(objects), warnings, light_groups))
+                                 {}, [None] * len(objects), charts, warnings, light_groups))
+
+
+def _chart_texels(rendered_uv: list[np.ndarray], layout: AtlasLayout) -> list[np.ndarray]:
+    """Per object, the area of each chart of its rendered UVs in texels^2 (core.atlas.chart_areas)."""
+    return [chart_areas(corner_uv * [layout.width, layout.height]) for corner_uv in rendered_uv]
+
+
+def _small_chart_warnings(objects, chart_texels: list[np.ndarray]) -> list[str]:
+    """One warning per object whose median chart covers under SMALL_CHART_TEXELS texels: its charts hold less
+    than a texel's light each, so its lightmap mixes its faces' light with the padding's."""
+    warnings = []
+    for item, charts in zip(objects, chart_texels):
+        if len(charts) and np.median(charts) < SMALL_CHART_TEXELS:
+            warnings.append(f"Object '{item.name}': its {len(charts)} lightmap charts are small (median "
+                            f"{np.median(charts):.1f} texels, under 2 x 2); raise its Lightmap Scale or the "
+                            "Texels per Metre, or bake it to colour attributes.")
+    return warnings
 
 
 def _existing_uv_warnings(objects, rendered_uv, uv_map: str, side: int) -> list[str]:
@@ -313,11 +335,12 @@ def write_lightmap(plan: LightmapPlan, lights: list[np.ndarray], metadata: dict,
               enumerate(zip(plan.image_names, files))]
     _remove_stale_pages(user.lightmap_image, layout.page_count)
     entries = []
-    for item, page in zip(plan.objects, layout.page):
+    for item, page, charts in zip(plan.objects, layout.page, plan.chart_texels):
         image, path = images[page], files[page].path
         entry = {"name": item.name, "uv_map": user.lightmap_uv_map, "color_attribute": None,
                  "image": f"(packed) {image.name}" if image.packed_file else path,
-                 "resolution": [layout.width, layout.height]}
+                 "resolution": [layout.width, layout.height], "charts": len(charts),
+                 "median_chart_texels": round(float(np.median(charts)), 2) if len(charts) else 0.0}
         if user.lightmap_png and folder:
             entry["png"] = os.path.splitext(path)[0] + ".png"
         entries.append(entry)
