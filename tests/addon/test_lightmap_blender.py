@@ -390,3 +390,32 @@ def test_bake_onto_an_existing_uv_map(empty_scene, extension, tmp_path):
     other.data.uv_layers.remove(other.data.uv_layers["UVMap"])
     with pytest.raises(SceneError, match="'Other' have no UV map 'UVMap'"):
         job.prepare(bpy.context, settings, str(tmp_path))
+
+
+def test_the_report_counts_each_objects_charts_and_names_those_under_two_by_two_texels(empty_scene, extension,
+                                                                                       tmp_path):
+    """At 8 texels per metre a 2 m floor is one chart of 16 x 16 = 256 texels; 64 pebbles of 2 cm, one mesh of
+    64 separate cubes, make at least 64 charts, each a texel or so (a face of 0.16 texels, grown by xatlas to
+    its smallest chart): the report lists both objects' charts and their median area in texels, and one
+    warning names the pebbles (and not the floor)."""
+    from radiosity_baker.radiosity_addon.settings import UserSettings
+    job = extension.radiosity_addon.job
+    grid_plane("Floor", 2.0, 1)
+    for k in range(64):
+        bpy.ops.mesh.primitive_cube_add(size=0.02, location=(0.1 * (k % 8) - 0.35, 0.1 * (k // 8) - 0.35, 0.01))
+    pebbles = [obj for obj in bpy.context.scene.objects if obj.name.startswith("Cube")]
+    with bpy.context.temp_override(active_object=pebbles[0], selected_editable_objects=pebbles):
+        bpy.ops.object.join()
+    pebbles[0].name = "Pebbles"
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0)
+    bake = job.prepare(bpy.context, UserSettings(quality="DRAFT", target="LIGHTMAP", texels_per_metre=8,
+                                                 lightmap_padding=2), str(tmp_path))
+    job.solve(bake, lambda fraction, message: None, lambda: False)
+    report = job.write_outputs(bake)
+    entries = {entry["name"]: entry for entry in report["objects"]}
+    assert entries["Floor"]["charts"] == 1
+    assert entries["Floor"]["median_chart_texels"] == pytest.approx(256, rel=0.05)
+    assert entries["Pebbles"]["charts"] >= 64
+    assert entries["Pebbles"]["median_chart_texels"] < 1.5
+    small = [warning for warning in report["warnings"] if "lightmap charts are small" in warning]
+    assert len(small) == 1 and "'Pebbles'" in small[0]
