@@ -1,5 +1,6 @@
 """Lightmap textures from a solved scene: per-texel direct light by shadow rays plus indirect light from the
-radiosity solution (final gather, or interpolation between elements for drafts), then dilation into the padding.
+radiosity solution (final gather, or interpolation between elements for drafts), then dilation into the padding
+and the stitching of UV seams.
 
 Values are irradiance / pi, scene-linear: what Cycles' Diffuse bake (Direct + Indirect, no Color) writes into an
 image on the same UV map (docs/units.md). Images are (height, width, 3) float32 with row 0 at the bottom, as
@@ -19,6 +20,7 @@ from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
 from .geometry import inset, lengths, triangle_areas
 from .scene import PointLight, SpotLight, SunLight
+from .seams import seam_points, stitch_seams
 from .surface_probes import (buried_in_geometry, covered_within, inside_closed_geometry, other_face_test,
                              push_out_of_geometry)
 from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, footprint_unfolded, rasterize,
@@ -128,7 +130,8 @@ class TexelPlan:
     contact: (m,) the share of its footprint they cover (of its points in its triangle), or all of it where its
     point is buried deeper in closed geometry than it can be pushed out (core.surface_probes.push_out_of_geometry);
     settings: with the indirect method chosen; texels_per_chunk: the chunks' size (the rays of a chunk are seeded
-    from its first texel)."""
+    from its first texel); seams: (k, 2) and (k, 2) points along the page's UV seams as drawn on either side, in
+    texels (core.seams.seam_points), where the finished page is stitched."""
 
     width: int
     height: int
@@ -146,6 +149,7 @@ class TexelPlan:
     contact: np.ndarray
     settings: LightmapSettings
     texels_per_chunk: int
+    seams: tuple[np.ndarray, np.ndarray]
 
     @property
     def texel_count(self) -> int:
@@ -237,8 +241,10 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     weight = np.where(in_triangle.any(axis=1)[:, None], in_triangle, True)  # where Cycles' samples land
     contact = (dark * weight).sum(axis=1) / weight.sum(axis=1)
     contact[buried] = 1.0  # no light gets there: Cycles bakes the inside of the geometry
+    page_triangles = scene.triangles[np.asarray(scene_triangle, dtype=np.int64)]
+    seams = seam_points(page_triangles, np.asarray(corner_uv, dtype=np.float64) * [width, height])
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
-                     sub_bary, steps, moved, dark, contact, settings, TEXELS_PER_CHUNK)
+                     sub_bary, steps, moved, dark, contact, settings, TEXELS_PER_CHUNK, seams)
 
 
 def with_indirect_method(plan: TexelPlan, solution) -> TexelPlan:
@@ -309,7 +315,7 @@ def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict 
 
 def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> np.ndarray:
     """(height, width, 3) float32 image of the texels' (m, 3) light as outputs store it, the share of each where
-    no light arrives (``plan.contact``) dark, dilated into the padding."""
+    no light arrives (``plan.contact``) dark, dilated into the padding, its seams stitched (core.seams)."""
     light = solution.output_light(light, plan.tri)
     # On another face or buried, no light gets there; texels pushed out to the visible floor beside a box keep
     # that light, so bilinear filtering shows no dark rim around the box.
@@ -317,7 +323,7 @@ def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> 
     image = np.zeros((plan.height * plan.width, 3))
     image[plan.pixel] = np.nan_to_num(light)
     image, _ = dilate(image.reshape(plan.height, plan.width, 3), covered, plan.settings.dilation_texels)
-    return image.astype(np.float32)
+    return stitch_seams(image, covered, *plan.seams).astype(np.float32)
 
 
 def _inside(solution, points, normals, sub_points) -> np.ndarray:
