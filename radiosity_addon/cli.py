@@ -209,8 +209,8 @@ def _check_arguments(args, user: UserSettings) -> str:
         if path and not _writable(path):
             raise CommandError(EXIT_OUTPUT, f"cannot write the {what} file: {path} (missing or read-only folder, "
                                             "or not a regular file)")
-    if user.lightmaps and not _writable(os.path.join(folder, "lightmap.exr")):
-        raise CommandError(EXIT_OUTPUT, f"cannot write lightmaps into {folder} (missing or read-only folder)")
+    if user.lightmaps and not _creatable(folder):
+        raise CommandError(EXIT_OUTPUT, f"cannot write lightmaps into {folder} (read-only, or not a folder)")
     return folder
 
 
@@ -253,6 +253,17 @@ def _writable(path: str) -> bool:
     folder = os.path.dirname(os.path.abspath(path))
     return os.path.isdir(folder) and os.access(folder, os.W_OK) and (not os.path.exists(path) or
                                                                       os.path.isfile(path))
+
+
+def _creatable(folder: str) -> bool:
+    """A folder we may write into, or one we may create (as Blender creates a render output's folders): its
+    nearest existing ancestor is a folder we may write to."""
+    while not os.path.exists(folder):
+        parent = os.path.dirname(folder)
+        if parent == folder:
+            return False
+        folder = parent
+    return os.path.isdir(folder) and os.access(folder, os.W_OK)
 
 
 def _progress_to_stderr():

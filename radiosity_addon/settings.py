@@ -145,8 +145,8 @@ SETTINGS = (
             flag="--existing-uv-map", section="lightmap"),
     Setting("lightmap_image", "Image", "Radiosity Lightmap", "Name of the lightmap image and of its .exr file",
             flag="--lightmap-image", section="lightmap"),
-    Setting("lightmap_folder", "Folder", "//", "Where the .exr goes (// is the saved .blend's folder; an unsaved "
-            ".blend gets the image packed)", flag="--lightmap-dir", subtype="DIR_PATH", section="lightmap"),
+    Setting("lightmap_folder", "Folder", "//", "Where the .exr goes, made if missing (// is the saved .blend's "
+            "folder; an unsaved .blend gets the image packed)", flag="--lightmap-dir", subtype="DIR_PATH", section="lightmap"),
     Setting("lightmap_half", "Half Float", True, "16-bit float EXR (smaller); off for 32-bit float",
             flag="--float", negate=True, section="lightmap"),
     Setting("lightmap_png", "Also PNG", False, "Also write an 8-bit sRGB PNG beside the EXR, for engines that "

@@ -241,3 +241,19 @@ def test_make_local_bakes_a_linked_object_into_the_saved_file(tmp_path, extensio
     assert statue.library is None and statue.data.library is None
     assert corner_colors(statue.data, "Radiosity").max() > 0
     assert hashlib.sha256((tmp_path / "library.blend").read_bytes()).hexdigest() == library
+
+
+def test_a_lightmap_folder_that_does_not_exist_yet_is_created(tmp_path, extension):
+    """--lightmap-dir naming folders not made yet: they are made (as Blender makes a render output's), and the
+    page lands there; a folder under a file cannot be made, and the bake exits 5 naming it, writing nothing."""
+    source = save_scene(tmp_path / "in.blend")
+    folder = tmp_path / "maps" / "level 1"
+    code, stderr = run_cli(source, "-o", tmp_path / "out.blend", "--quality", "draft", "--target", "lightmap",
+                           "--lightmap-dir", folder)
+    assert code == 0, stderr
+    assert (folder / "Radiosity_Lightmap.exr").is_file()
+    (tmp_path / "a file").write_text("")
+    code, stderr = run_cli(source, "-o", tmp_path / "again.blend", "--quality", "draft", "--target", "lightmap",
+                           "--lightmap-dir", tmp_path / "a file" / "maps")
+    assert code == 5 and str(tmp_path / "a file" / "maps") in stderr, stderr
+    assert not (tmp_path / "again.blend").exists()
