@@ -100,6 +100,8 @@ def export_scene(context) -> Export:
             continue
         part = _mesh_triangles(evaluated, np.array(instance.matrix_world), materials, groups.of(original))
         if part is None:
+            if not instance.is_instance:
+                materials.warnings.append(f"Object '{original.name}' has no faces: it is not baked.")
             continue
         loops, vertices = part.pop("loops"), part.pop("vertices")
         count = len(loops)
@@ -131,7 +133,12 @@ def export_scene(context) -> Export:
     arrays = {key: np.concatenate(value) for key, value in columns.items() if value} or nothing
     scene = Scene(materials=materials.list or [DEFAULT_MATERIAL], lights=lights,
                   world=_world(context.scene, materials.warnings, groups), object_names=names, **arrays)
-    return Export(scene, objects, arrays["triangles"], materials.warnings)
+    export = Export(scene, objects, arrays["triangles"], materials.warnings)
+    kept = export.scene_index_of_input() >= 0
+    export.warnings += [f"Object '{item.name}': none of its {item.triangle_count} faces has any area (a scale of 0, "
+                        "or its vertices merged): it is not baked." for item in objects
+                        if not kept[item.first_triangle:item.first_triangle + item.triangle_count].any()]
+    return export
 
 
 def _add_emitter_backs(columns: dict, names: list[str], materials: list[Material]) -> None:

@@ -140,14 +140,25 @@ def make_scene(tmp_path, build):
 
 
 def test_an_object_at_scale_zero_bakes(tmp_path, extension):
-    """A roof squashed flat by a zero scale along Z still casts its shadow; the floor under it bakes."""
+    """A roof squashed flat by a zero scale along Z still casts its shadow; the floor under it bakes. A plane at
+    scale 0 and a mesh of vertices only have no surface to bake: the bake goes on and the report's warnings name
+    each of them."""
     def build():
         grid_plane("Floor", 2.0, 4)
         cube = grid_plane("Flat", 1.0, 2, location=(0, 0, 1.0))
         cube.scale = (1.0, 1.0, 0.0)
+        grid_plane("Vanished", 1.0, 2, location=(2.0, 0, 0.5)).scale = (0.0, 0.0, 0.0)
+        points = bpy.data.meshes.new("Points")
+        points.from_pydata([(0, 0, 0), (1, 0, 0)], [], [])
+        bpy.context.collection.objects.link(bpy.data.objects.new("Points", points))
         add_light("POINT", (0.0, 0.0, 2.0), 100.0)
-    code, stderr = run_cli(make_scene(tmp_path, build), "-o", tmp_path / "out.blend", "--quality", "draft")
+    code, stderr = run_cli(make_scene(tmp_path, build), "-o", tmp_path / "out.blend", "--quality", "draft",
+                           "--report", tmp_path / "report.json")
     assert code == 0, stderr
+    warnings = json.loads((tmp_path / "report.json").read_text())["warnings"]
+    assert any("'Vanished'" in warning and "scale of 0" in warning for warning in warnings), warnings
+    assert any("'Points'" in warning and "no faces" in warning for warning in warnings), warnings
+    assert not any("'Flat'" in warning or "'Floor'" in warning for warning in warnings), warnings
 
 
 def test_a_missing_texture_file_names_the_image(tmp_path, extension):
