@@ -127,8 +127,9 @@ class TexelPlan:
     finer points over the footprint; moved: (m,) pushed out; dark: (m, q) footprint points no light reaches (on
     another face in the same plane, under a face nearer than the ray offset, or buried in closed geometry: the part
     of a rail's texel that reaches into a column), left out of the texel's means;
-    contact: (m,) the share of its footprint they cover (of its points in its triangle), or all of it where its
-    point is buried deeper in closed geometry than it can be pushed out (core.surface_probes.push_out_of_geometry);
+    contact: (m,) the share of its footprint they cover (of its points in its triangle; for a texel pushed out, the
+    share of its footprint inside closed geometry), or all of it where its point is buried deeper in closed
+    geometry than it can be pushed out (core.surface_probes.push_out_of_geometry);
     settings: with the indirect method chosen; texels_per_chunk: the chunks' size (the rays of a chunk are seeded
     from its first texel); seams: (k, 2) and (k, 2) points along the page's UV seams as drawn on either side, in
     texels (core.seams.seam_points), where the finished page is stitched."""
@@ -226,6 +227,7 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels,
                                     4 * offset_m)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
+    on_surface = points
     points, moved, buried = push_out_of_geometry(caster, scene.triangles, points, normals, reach, offset_m)
     steps = footprint_steps(texels, corner_uv)
     sub_points, sub_bary = _footprint_points(scene.triangles[tri], texels.barycentric, steps,
@@ -240,11 +242,29 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     in_triangle = footprint_inside(texels.barycentric, steps, settings.subtexel_samples_per_edge)
     weight = np.where(in_triangle.any(axis=1)[:, None], in_triangle, True)  # where Cycles' samples land
     contact = (dark * weight).sum(axis=1) / weight.sum(axis=1)
+    contact[moved] = _share_inside(caster, scene.triangles, tri, texels.barycentric, steps, on_surface, normals,
+                                   moved, weight, settings.subtexel_samples_per_edge, offset_m)
     contact[buried] = 1.0  # no light gets there: Cycles bakes the inside of the geometry
     page_triangles = scene.triangles[np.asarray(scene_triangle, dtype=np.int64)]
     seams = seam_points(page_triangles, np.asarray(corner_uv, dtype=np.float64) * [width, height])
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
                      sub_bary, steps, moved, dark, contact, settings, TEXELS_PER_CHUNK, seams)
+
+
+def _share_inside(caster, scene_triangles_m, tri, barycentric, steps, points, normals, moved, weight,
+                  samples_per_edge: int, offset_m: float) -> np.ndarray:
+    """(moved,) the share of each moved texel's footprint (its k x k points where they were, before its point was
+    pushed out, weighted by ``weight``) that lies inside closed geometry (core.surface_probes): where Cycles'
+    samples see the inside of the geometry and bring no light. A texel wholly under a cover, pushed out to a
+    point beside it, then takes none of that point's light; one half out takes half."""
+    rows = np.flatnonzero(moved)
+    stay = np.zeros(len(rows), dtype=bool)
+    original, _ = _footprint_points(scene_triangles_m[tri[rows]], barycentric[rows], steps[rows], samples_per_edge,
+                                    points[rows], stay, 4 * offset_m)
+    q = original.shape[1]
+    inside = inside_closed_geometry(caster, scene_triangles_m, original.reshape(-1, 3),
+                                    np.repeat(normals[rows], q, axis=0), offset_m).reshape(-1, q)
+    return (inside * weight[rows]).sum(axis=1) / weight[rows].sum(axis=1)
 
 
 def with_indirect_method(plan: TexelPlan, solution) -> TexelPlan:
@@ -317,9 +337,8 @@ def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> 
     """(height, width, 3) float32 image of the texels' (m, 3) light as outputs store it, the share of each where
     no light arrives (``plan.contact``) dark, dilated into the padding, its seams stitched (core.seams)."""
     light = solution.output_light(light, plan.tri)
-    # On another face or buried, no light gets there; texels pushed out to the visible floor beside a box keep
-    # that light, so bilinear filtering shows no dark rim around the box.
-    light[~plan.moved] *= 1.0 - plan.contact[~plan.moved, None]
+    # On another face, buried, or (for texels pushed out) inside closed geometry, no light gets there.
+    light *= 1.0 - plan.contact[:, None]
     image = np.zeros((plan.height * plan.width, 3))
     image[plan.pixel] = np.nan_to_num(light)
     image, _ = dilate(image.reshape(plan.height, plan.width, 3), covered, plan.settings.dilation_texels)
