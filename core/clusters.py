@@ -5,7 +5,10 @@ floor triangle becomes a grid of pieces, a small one stays whole). Pieces are th
 cluster radiosity groups faces (Willmott, Heckbert & Garland 1999):
 
 - pieces at least half the element size long and of at least the area of a right triangle with such legs stay
-  elements of their own (a big wall's grid of pieces);
+  elements of their own (a big wall's grid of pieces), and so do the pieces of emitting surfaces: a one-piece
+  element takes Lambert's exact factor (core.links), which a point beside a light needs (a point-sampled cluster
+  of a light's pieces lit the rim of a ceiling's opening, 0.5 mm from the light, at twice the light's radiance),
+  and no element spreads a light's emission over the surface around it;
 - smaller pieces, and slivers (a 3 m strip of moulding 2 cm wide, cut into pieces no longer than the element
   size, would otherwise make dozens of elements of a few square centimetres each), group by a grid cell of the element size and a bin of their normal direction (24 bins: a cube
   face and a quadrant of it), so an element is about as large as the element size and turns one way;
@@ -105,7 +108,9 @@ def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_s
     centroid = corners.mean(axis=1)
     origin = centroid.min(axis=0) if len(centroid) else np.zeros(3)
     cell = np.floor((centroid - origin) / size[:, None]).astype(np.int64)
-    alone = np.where(stands_alone(longest_edges(corners), area, size), np.arange(len(nodes)), -1)
+    material = scene.material_index[mesh.triangle_scene[mesh.node_triangle[nodes]]]
+    emits = (scene.emitted_radiance > 0).any(axis=1)[material]
+    alone = np.where(stands_alone(longest_edges(corners), area, size) | emits, np.arange(len(nodes)), -1)
     level = np.round(np.log2(size.max() / size)).astype(np.int64) if len(size) else np.zeros(0, np.int64)
     key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None], level[:, None]], axis=1)
     element, _ = row_groups(key)

@@ -220,6 +220,26 @@ def test_a_smooth_low_poly_cylinder_lit_by_an_emissive_panel_gets_the_panel_s_cl
     assert np.abs(flat - expected).max() > 0.01 * expected.max()
 
 
+def test_a_point_half_a_millimetre_over_a_finely_cut_emitter_gets_its_closed_form():
+    """A 13 x 10.5 cm emissive panel (radiance 1) cut into 32 triangles, facing up, and points facing down 0.5 mm
+    over it on a line across its edge (a ceiling's rim over a light hung under its opening): E = pi L F(point ->
+    rectangle) by the closed form (Howell B-3), within 1e-4 of pi L. Measured: 4e-16; off by 0.99 pi L (and
+    491 x the closed form beside the edge) when the panel's pieces made point-sampled elements."""
+    from core import BakeSettings, bake
+    from test_nearfield import rectangle_factor
+    x, y = np.linspace(0.0, 0.13, 5), np.linspace(0.0, 0.105, 5)
+    panel = np.concatenate([quad((x[i], y[j], 0), (x[i + 1], y[j], 0), (x[i + 1], y[j + 1], 0), (x[i], y[j + 1], 0))
+                            for i in range(4) for j in range(4)])
+    floor = quad((-1, -1, -0.5), (-1, 1, -0.5), (1, 1, -0.5), (1, -1, -0.5))  # something to solve, facing down
+    scene = Scene(np.concatenate([panel, floor]), np.r_[np.ones(len(panel), int), [0, 0]],
+                  [Material("grey"), Material("glow", (0.0,) * 3, (1.0,) * 3)])
+    direct = bake(scene, BakeSettings(patch_size_m=1.0, element_size_m=0.25, adaptive_passes=0)).direct
+    points = np.stack([np.linspace(0.12, 0.14, 41), np.full(41, 0.05), np.full(41, 0.0005)], axis=1)
+    down = np.broadcast_to([0.0, 0.0, -1.0], points.shape).copy()
+    expected = np.pi * rectangle_factor(points, 0.0, 0.13, 0.0, 0.105)
+    np.testing.assert_allclose(direct.irradiance(points, down)[:, 0], expected, atol=1e-4 * np.pi)
+
+
 @pytest.mark.parametrize("exact_lights", [0, 2])
 def test_sampled_lights_are_unbiased(exact_lights):
     """Four lights of different kinds, colours and strengths over a floor, a block casting their shadows: the
