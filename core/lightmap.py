@@ -245,8 +245,9 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     contact[moved] = _share_inside(caster, scene.triangles, tri, texels.barycentric, steps, on_surface, normals,
                                    moved, weight, settings.subtexel_samples_per_edge, offset_m)
     contact[buried] = 1.0  # no light gets there: Cycles bakes the inside of the geometry
-    page_triangles = scene.triangles[np.asarray(scene_triangle, dtype=np.int64)]
-    seams = seam_points(page_triangles, np.asarray(corner_uv, dtype=np.float64) * [width, height])
+    page = np.asarray(scene_triangle, dtype=np.int64)
+    seams = seam_points(scene.triangles[page], scene.corner_normals[page],
+                        np.asarray(corner_uv, dtype=np.float64) * [width, height])
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
                      sub_bary, steps, moved, dark, contact, settings, TEXELS_PER_CHUNK, seams)
 

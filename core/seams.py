@@ -19,9 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import triangle_unit_normals
-
-SEAM_CREASE_COSINE = np.cos(np.radians(30.0))  # faces bent more than this meet at a crease, whose sides may differ
+SEAM_SHADING_COSINE = np.cos(np.radians(2.0))  # corner normals further apart than this meet at a shading crease
 SEAM_POINTS_PER_TEXEL = 2      # seam points per texel of the edge's longer drawing
 SEAM_POINTS_MAX = 64           # per edge
 POSITION_DIGITS = 6            # an edge's ends are matched by their positions rounded to a micrometre
@@ -31,11 +29,14 @@ STITCH_ITERATIONS = 200
 STITCH_TOLERANCE = 1e-6        # of the right-hand side's norm: where conjugate gradients stop
 
 
-def seam_points(triangles_m: np.ndarray, corner_texels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def seam_points(triangles_m: np.ndarray, corner_normals: np.ndarray,
+                corner_texels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(k, 2) and (k, 2): the page positions, in texels (texel (x, y) has its centre at (x + 0.5, y + 0.5)), of
-    points along every seam as drawn on one side and on the other, for (t, 3, 3) triangles with (t, 3, 2) corner
-    positions in texels. A seam is an edge whose two ends two triangles share (by position), drawn at other
-    places by each, between faces bent less than SEAM_CREASE_COSINE; its points lie at the middles of
+    points along every seam as drawn on one side and on the other, for (t, 3, 3) triangles with (t, 3, 3) unit
+    shading normals at their corners and (t, 3, 2) corner positions in texels. A seam is an edge whose two ends
+    two triangles share (by position), drawn at other places by each, and shaded smooth across: at each end the
+    two triangles' corner normals lie within SEAM_SHADING_COSINE (a flat-shaded or sharp edge is a shading crease,
+    whose sides a renderer shows apart, as Cycles bakes them); its points lie at the middles of
     SEAM_POINTS_PER_TEXEL steps per texel of its longer drawing (at least one, at most SEAM_POINTS_MAX)."""
     empty = np.zeros((0, 2))
     if len(triangles_m) < 2:
@@ -43,20 +44,22 @@ def seam_points(triangles_m: np.ndarray, corner_texels: np.ndarray) -> tuple[np.
     start, end = np.array([0, 1, 2]), np.array([1, 2, 0])
     p, q = triangles_m[:, start].reshape(-1, 3), triangles_m[:, end].reshape(-1, 3)
     uv_p, uv_q = corner_texels[:, start].reshape(-1, 2), corner_texels[:, end].reshape(-1, 2)
+    n_p, n_q = corner_normals[:, start].reshape(-1, 3), corner_normals[:, end].reshape(-1, 3)
     p_key, q_key = np.round(p, POSITION_DIGITS), np.round(q, POSITION_DIGITS)
     swap = _lexicographically_greater(p_key, q_key)  # each edge from its lower end, whichever way it runs
     low, high = np.where(swap[:, None], q_key, p_key), np.where(swap[:, None], p_key, q_key)
     uv_low, uv_high = np.where(swap[:, None], uv_q, uv_p), np.where(swap[:, None], uv_p, uv_q)
+    n_low, n_high = np.where(swap[:, None], n_q, n_p), np.where(swap[:, None], n_p, n_q)
     _, edge, count = np.unique(np.concatenate([low, high], axis=1), axis=0, return_inverse=True,
                                return_counts=True)
     edge = edge.ravel()
     shared = np.flatnonzero(count[edge] == 2)
     order = shared[np.argsort(edge[shared], kind="stable")]
     one, other = order[0::2], order[1::2]
-    normal = np.repeat(triangle_unit_normals(triangles_m), 3, axis=0)
     drawn_apart = np.maximum(np.abs(uv_low[one] - uv_low[other]).max(axis=1),
                              np.abs(uv_high[one] - uv_high[other]).max(axis=1)) > 1e-3
-    smooth = np.einsum("ij,ij->i", normal[one], normal[other]) >= SEAM_CREASE_COSINE
+    smooth = ((np.einsum("ij,ij->i", n_low[one], n_low[other]) >= SEAM_SHADING_COSINE) &
+              (np.einsum("ij,ij->i", n_high[one], n_high[other]) >= SEAM_SHADING_COSINE))
     seam = drawn_apart & smooth
     one, other = one[seam], other[seam]
     drawn = np.maximum(np.linalg.norm(uv_high[one] - uv_low[one], axis=1),

@@ -989,6 +989,26 @@ def test_a_wall_of_slivers_through_a_sunlit_floor_gathers_over_each_sliver(monke
         assert error.max() > 0.3   # the test can fail: one point per texel
 
 
+def test_only_edges_shaded_smooth_across_are_seams():
+    """Two triangles bent 20 degrees about their shared edge, drawn apart in the page. With each face's own normal
+    at its corners (flat shading: the sides are lit apart, and a renderer shows them apart) the edge is no seam;
+    with the two faces' mean normal at the edge's ends (smooth shading) it is, with SEAM_POINTS_PER_TEXEL points
+    per texel of its drawing: 2 x 8."""
+    bend = np.radians(20.0)
+    triangles = np.array([[(0, 0, 0), (1, 0, 0), (0.5, -1, 0)],
+                          [(1, 0, 0), (0, 0, 0), (0.5, np.cos(bend), np.sin(bend))]], dtype=float)
+    corner_texels = np.array([[(2, 10), (10, 10), (6, 2)], [(30, 20), (22, 20), (26, 28)]], dtype=float)
+    flat = np.repeat(triangle_unit_normals(triangles)[:, None], 3, axis=1)
+    assert len(seam_points(triangles, flat, corner_texels)[0]) == 0
+    smooth = flat.copy()
+    mean = flat[0, 0] + flat[1, 0]
+    smooth[0, :2] = smooth[1, :2] = mean / np.linalg.norm(mean)
+    one, other = seam_points(triangles, smooth, corner_texels)
+    assert len(one) == 16
+    np.testing.assert_allclose(one[[0, -1]], [(2.25, 10), (9.75, 10)])
+    np.testing.assert_allclose(other[[0, -1]], [(22.25, 20), (29.75, 20)])  # the same points
+
+
 def test_stitching_keeps_a_smooth_light_across_a_uv_seam():
     """A floor lit by a point light 0.3 m above it, unwrapped as two triangles of two meshes, so that its diagonal
     is a seam drawn at two places. Read bilinearly at points along the seam, after stitching (core.seams), the
@@ -998,7 +1018,7 @@ def test_stitching_keeps_a_smooth_light_across_a_uv_seam():
     light = PointLight("lamp", (0.3, -0.3, 0.3), power_w=100.0, soft_falloff=False)
     scene = Scene(floor, np.zeros(2, int), [Material("grey", (0.5,) * 3)], lights=[light])  # nothing to reflect
     result, layout, corner_uv = lightmap_of(scene, [floor[:1], floor[1:]], texels_per_metre=12.0)
-    one, other = seam_points(floor, corner_uv * [layout.width, layout.height])
+    one, other = seam_points(floor, scene.corner_normals, corner_uv * [layout.width, layout.height])
     assert len(one) > 20
     assert seam_gap(result.light, one, other).mean() < 1e-3 * result.light[result.covered].mean()
     at = (np.arange(len(one)) + 0.5) / len(one)  # one seam, its points from its lower end (-1, -1, 0) on
@@ -1022,7 +1042,8 @@ def test_the_two_sides_of_a_uv_seam_agree_where_the_gather_is_noisy(monkeypatch)
                           AtlasSize(4.0, 0, 2, 4096))
     corner_uv = np.concatenate(layout.corner_uv)
     settings = LightmapSettings(indirect="gather", gather_samples_per_edge=4)
-    one, other = seam_points(scene.triangles[2:4], corner_uv * [layout.width, layout.height])
+    one, other = seam_points(scene.triangles[2:4], scene.corner_normals[2:4],
+                             corner_uv * [layout.width, layout.height])
     assert len(one) > 20
     reads = {}
     for stitched in (False, True):
