@@ -51,8 +51,8 @@ def first_use_message() -> str | None:
 
 class RayCaster:
     """A ray-casting scene over (T, 3, 3) triangles, for queries from any thread (core.parallel's steps); counts
-    the rays it casts in ``rays_cast``. Pickles as its triangles and rebuilds the scene when unpickled, with the
-    threads of the machine that loads it."""
+    the rays it casts in ``rays_cast``. Its state (``__getstate__``, as a data file or a pickle stores it) is its
+    triangles; restored, it rebuilds the scene with the threads of the machine that loads it."""
 
     def __init__(self, triangles: np.ndarray, threads: int | None = None):
         self._triangles = np.ascontiguousarray(triangles, dtype=np.float32)

@@ -3,20 +3,30 @@ another process or on another machine, over the same solution.
 
 The file holds what outputs read: the scene, the element mesh, the solved elements, the direct lighting (its
 emitter clusters) and the triangles of the ray-casting scene, which is rebuilt on load. It leaves out the solver's
-working state (links, shooting queues), which no output reads and which is the largest part of a solve. The
-format is a versioned pickle: load only files you or your farm wrote.
+working state (links, shooting queues), which no output reads and which is the largest part of a solve. It is a
+data-only file (core.data_file): reading one runs nothing it holds, whoever wrote it.
 """
 from __future__ import annotations
 
 import copy
-import pickle
 
-from .errors import SceneError
-from .solution import Solution
+from .cluster_tree import ClusterTree
+from .data_file import data_writer, read_data
+from .direct_light import DirectLighting
+from .links import LinkSources
+from .mesh import ElementMesh, Elements
+from .raycast import RayCaster
+from .scene import AreaLight, Material, PointLight, Scene, Source, SpotLight, SunLight, World
+from .solution import SolvedElements, Solution
+from .solver import ConvergenceStep
 from .staged_files import StagedFiles
+from .texture import ReflectanceTexture
 
 FORMAT = "radiosity-solution"
-VERSION = 2
+VERSION = 3
+CLASSES = (Solution, SolvedElements, Scene, Material, ReflectanceTexture, PointLight, SpotLight, SunLight,
+           AreaLight, World, Source, ElementMesh, Elements, DirectLighting, LinkSources, ClusterTree,
+           ConvergenceStep, RayCaster)
 
 
 def save_solution(solution: Solution, path: str) -> None:
@@ -25,37 +35,11 @@ def save_solution(solution: Solution, path: str) -> None:
     saved = copy.copy(solution)
     saved.state, saved._overlap_test = None, None  # the solver's working state; a test rebuilt on use
     with StagedFiles() as staged:
-        staged.stage(path, pickle_writer({"format": FORMAT, "version": VERSION, "solution": saved}))
+        staged.stage(path, data_writer({"format": FORMAT, "version": VERSION}, saved, CLASSES))
         staged.commit()
 
 
 def load_solution(path: str) -> Solution:
     """The solution saved at ``path``; SceneError names the file if it is missing, unreadable, or not a solution
     of this version."""
-    return read_pickle(path, FORMAT, VERSION, "saved radiosity solution")["solution"]
-
-
-def pickle_writer(content: dict):
-    """A writer of ``content`` as a pickle, for core.staged_files.StagedFiles.stage."""
-    def write(temporary: str) -> None:
-        with open(temporary, "wb") as file:
-            pickle.dump(content, file, protocol=pickle.HIGHEST_PROTOCOL)
-    return write
-
-
-def read_pickle(path: str, format_name: str, version: int, what: str) -> dict:
-    """The dict pickled at ``path`` with the given "format" and "version"; SceneError names the file (and
-    ``what`` it should be) if it is missing, unreadable, truncated, or of another format or version."""
-    try:
-        with open(path, "rb") as file:
-            saved = pickle.load(file)
-    except OSError as error:
-        raise SceneError(f"Cannot read the {what} '{path}': {error.strerror or error}.") from error
-    except (pickle.UnpicklingError, EOFError, AttributeError, ImportError, IndexError, TypeError) as error:
-        raise SceneError(f"'{path}' is not a {what} (or it is truncated).") from error
-    if not isinstance(saved, dict) or saved.get("format") != format_name:
-        raise SceneError(f"'{path}' is not a {what}.")
-    if saved.get("version") != version:
-        raise SceneError(f"'{path}' is a {what} of format version {saved.get('version')}; this baker reads "
-                         f"version {version}. Bake the scene again.")
-    return saved
+    return read_data(path, FORMAT, VERSION, "saved radiosity solution", CLASSES)[1]

@@ -12,7 +12,7 @@ from . import hookup
 from . import job as bake_job
 from .lightmaps import lightmap_folder, page_images
 from .export import export_scene
-from .relighting import SESSION, cache_path, load_cache, transport_key
+from .relighting import SESSION, cache_key, cache_path, transport_key
 from .settings import light_group_output
 
 # The one interactive bake at a time; the worker thread writes only plain Python values here.
@@ -235,7 +235,7 @@ def check_scene() -> None:
         if path not in SESSION and not os.path.isfile(path):
             return None
         changed = transport_key(export_scene(bpy.context).scene, scene.radiosity.user_settings()).changes(
-            load_cache(path)["key"])
+            cache_key(path))
         STATUS["relight"] = f"Bake again: {', '.join(changed)} changed since the cache" if changed else ""
     except BakeError as error:
         STATUS["relight"] = str(error)

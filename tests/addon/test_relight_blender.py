@@ -1,6 +1,8 @@
 """Relighting from a cache: a bake split by light source, mixed again for new lamp strengths and colours, world
 strength and light groups, equals a new bake of the edited scene; anything else that changed is refused by name."""
 import json
+import pickle
+from pathlib import Path
 
 import bpy
 import numpy as np
@@ -151,6 +153,37 @@ def test_the_panel_says_when_the_cache_no_longer_fits(tmp_path, extension):
     assert "geometry" in operators.STATUS["relight"]
     with pytest.raises(RuntimeError, match="geometry"):
         bpy.ops.radiosity.update_light()
+
+
+class _Touch:
+    """A pickle payload: unpickling it creates the file ``marker`` (a crafted cache could run any code there)."""
+
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return Path.touch, (self.marker,)
+
+
+def test_a_blend_naming_a_planted_pickle_runs_nothing(tmp_path, extension):
+    """A .blend from elsewhere whose relighting cache is a pickle that would create a file when loaded: opened,
+    the panel's check, Update Light and --relight each refuse it, naming the file, and the file is never made."""
+    grouped_scene()
+    marker, planted = tmp_path / "ran", tmp_path / "crafted.rlcache"
+    planted.write_bytes(pickle.dumps({"format": "radiosity-relight", "version": 2, "key": _Touch(marker)}))
+    bpy.context.scene.radiosity.relight_cache = str(planted)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "crafted.blend"))
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "crafted.blend"))
+    operators = extension.radiosity_addon.operators
+    operators.check_scene()
+    assert "crafted.rlcache" in operators.STATUS["relight"] and "is not a relighting cache" in \
+        operators.STATUS["relight"]
+    with pytest.raises(RuntimeError, match="crafted.rlcache"):
+        bpy.ops.radiosity.update_light()
+    code, stderr = run_cli(tmp_path / "crafted.blend", "-o", tmp_path / "relit.blend", "--quality", "draft",
+                           "--relight", planted)
+    assert code != 0 and "crafted.rlcache" in stderr
+    assert not marker.exists() and not (tmp_path / "relit.blend").exists()
 
 
 def test_the_radiosity_mesh_of_a_bake_with_a_cache_holds_the_scene_s_light(tmp_path, extension):
