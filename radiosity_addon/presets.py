@@ -55,7 +55,7 @@ def bake_settings(user, scene_size_m: float) -> BakeSettings:
         element, patch = user.element_size, user.patch_size
         passes, residual, samples = user.adaptive_passes, user.residual, user.light_samples
     return BakeSettings(element_size_m=element, patch_size_m=max(patch, element), adaptive_passes=passes,
-                        residual_threshold=residual, light_samples_per_edge=samples, form_factors=user.form_factors,
+                        residual_threshold=residual, light_samples_per_edge=samples,
                         adaptive_threshold=ADAPTIVE_THRESHOLD, min_element_size_m=element * MIN_ELEMENT_SHARE,
                         seed=user.seed, max_memory_gb=user.max_memory_gb)
 

@@ -34,7 +34,7 @@ WHAT = "relighting cache"
 # The settings a bake's light depends on, besides what presets.bake_settings makes of them; output names,
 # folders, formats and light groups are free to change.
 TRANSPORT_SETTINGS = ("quality", "element_size", "patch_size", "adaptive_passes", "residual", "light_samples",
-                      "form_factors", "seed", "vertex_domain", "vertex_indirect", "vertex_gather_samples",
+                      "seed", "vertex_domain", "vertex_indirect", "vertex_gather_samples",
                       "own_mesh_copies", "texels_per_metre", "lightmap_resolution", "lightmap_max_size",
                       "lightmap_padding", "lightmap_indirect", "gather_samples", "lightmap_uv_map",
                       "lightmap_existing_uv", "make_local")

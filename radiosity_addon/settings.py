@@ -73,11 +73,6 @@ SETTINGS = (
             precision=4, enabled_when=_custom),
     Setting("light_samples", "Light Samples", 4, "Shadow rays per element and soft light: this number squared "
             "(Custom quality)", flag="--light-samples", low=1, high=64, soft_high=16, enabled_when=_custom),
-    Setting("form_factors", "Form Factors", "raycast", "How the classic solvers find form factors",
-            flag="--form-factors", items=(
-                ("raycast", "Ray-cast", "Exact point-to-patch factor times shadow-ray visibility (accurate)"),
-                ("hemicube", "Hemicube", "Cohen & Greenberg's hemicube with a ray-cast item buffer (classic, "
-                                         "aliases)"))),
     Setting("seed", "Seed", 0, "Seed of the stratified samples: a bake is the same for the same seed",
             flag="--seed", low=0, high=2 ** 31 - 1),
     Setting("max_memory_gb", "Memory Limit (GB)", 0.0, "The most memory a bake may use, GiB: a larger bake gets "
