@@ -268,3 +268,29 @@ def test_a_lightmap_folder_that_does_not_exist_yet_is_created(tmp_path, extensio
                            "--lightmap-dir", tmp_path / "a file" / "maps")
     assert code == 5 and str(tmp_path / "a file" / "maps") in stderr, stderr
     assert not (tmp_path / "again.blend").exists()
+
+
+def test_a_damaged_cache_or_one_of_another_version_is_named(tmp_path, extension):
+    """--relight from a cache cut in half, from one of another format version, or from a folder, and --cache into
+    a folder: each exits with its one line naming the file (4 for what is read, 3 for a folder given as the cache
+    to read, 5 for what cannot be written) and writes no output."""
+    from radiosity_baker.core.data_file import data_writer
+    source = save_scene(tmp_path / "in.blend")
+    code, stderr = run_cli(source, "-o", tmp_path / "baked.blend", "--quality", "draft", "--cache",
+                           tmp_path / "good.rlcache")
+    assert code == 0, stderr
+    whole = (tmp_path / "good.rlcache").read_bytes()
+    (tmp_path / "cut.rlcache").write_bytes(whole[:len(whole) // 2])
+    data_writer({"format": "radiosity-relight", "version": 1}, {}, ())(str(tmp_path / "old.rlcache"))
+    (tmp_path / "folder.rlcache").mkdir()
+    for name, expected_code, message in [("cut.rlcache", 4, "is not a relighting cache"),
+                                         ("old.rlcache", 4, "format version 1"),
+                                         ("folder.rlcache", 3, "relighting cache")]:
+        code, stderr = run_cli(source, "-o", tmp_path / "relit.blend", "--quality", "draft", "--relight",
+                               tmp_path / name)
+        assert code == expected_code and name in stderr and message in stderr, stderr
+        assert not (tmp_path / "relit.blend").exists()
+    code, stderr = run_cli(source, "-o", tmp_path / "again.blend", "--quality", "draft", "--cache",
+                           tmp_path / "folder.rlcache")
+    assert code == 5 and "folder.rlcache" in stderr, stderr
+    assert not (tmp_path / "again.blend").exists()
