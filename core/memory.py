@@ -5,7 +5,10 @@ is set, on Linux). ``estimate_bake`` adds up what each step holds at its peak fr
 large allocation: the triangles, the pieces they are cut into, the elements the pieces group into (counted the
 way core.clusters groups them, without its visibility test) and the lightmap texels. Its per-item sizes are the
 arrays the steps keep (docs/benchmarks.md shows them against measured peaks). ``fit_to_memory`` coarsens the
-elements until the estimate fits, and refuses the bake in one line when even that does not help.
+elements until the estimate fits, and refuses the bake in one line when even that does not help. Since an
+estimate can be short, ``memory_guard`` makes the limit hold while the bake runs: wrapped around the bake's
+``cancelled`` (which the core polls between steps, chunks and solver iterations), it stops the bake with
+MemoryLimitError once the process's resident memory exceeds the limit, before anything is written.
 """
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ from .adaptive_elements import ADAPTIVE_GROWTH
 from .clusters import normal_bins, stands_alone
 from .errors import SceneError
 from .geometry import longest_edges, triangle_areas, triangle_unit_normals
+from .links import PAIRS_PER_STEP
 from .parallel import steps_in_flight
 from .ragged import row_groups
 
@@ -31,10 +35,11 @@ FIXED_BYTES = 500 * 2 ** 20     # interpreter, Blender or numpy, Embree
 BYTES_PER_TRIANGLE = 1_500      # the exported scene, the Embree BVH, per-triangle tests
 BYTES_PER_PIECE = 700           # the element mesh's nodes and the clustering's per-piece arrays
 BYTES_PER_SOLVED_SIDE = 2_000   # what the solution keeps per element side (points, light, interpolation)
-LINK_WORKSPACE = 800 * 2 ** 20  # candidate links being weighed by one step (a fixed number of pairs), per step
-                                # in flight (core.parallel)
-BYTES_PER_LINKED_SIDE = 30_000  # Medium: about 235 links per side, twice while they are refined, and their
-                                # sparse transfer in the solve
+LINK_WORKSPACE = 256 * 2 ** 20  # candidate links weighed by one step (core.links.PAIRS_PER_STEP pairs): its numpy
+                                # arrays peak at 55-85 MiB (traced), plus the ray queries' buffers and the
+                                # allocator's slack (fitted: docs/benchmarks.md, "Memory")
+CANDIDATES_PER_SIDE = 470       # Medium: about 235 links per side, twice while they are refined
+BYTES_PER_LINKED_SIDE = 30_000  # those links and their sparse transfer in the solve
 BYTES_PER_TEXEL = 3_000         # a page's covered texels while lit: points, footprints, rays, interpolation
 BYTES_PER_PLANNED_TEXEL = 2_000 # every page's texels planned alongside the solve: the plan kept until the page
                                 # is lit (core.lightmap.TexelPlan, 9 footprint points a texel: 600 bytes) and the
@@ -71,6 +76,46 @@ def physical_memory_bytes() -> int:
         if text.isdigit() and 0 < int(text) < (total or 1 << 62):
             total = int(text)
     return total
+
+
+def resident_bytes() -> int:
+    """The process's resident memory now (its peak on macOS, where only that is at hand; 0 if unknown)."""
+    if sys.platform == "win32":
+        class Counters(ctypes.Structure):
+            _fields_ = [("size", ctypes.c_ulong), ("faults", ctypes.c_ulong)] + [
+                (name, ctypes.c_size_t) for name in ("peak_working_set", "working_set", "peak_paged_pool",
+                                                      "paged_pool", "peak_nonpaged_pool", "nonpaged_pool",
+                                                      "page_file", "peak_page_file")]
+        counters = Counters(size=ctypes.sizeof(Counters))
+        process = ctypes.windll.kernel32.GetCurrentProcess()
+        ok = ctypes.windll.psapi.GetProcessMemoryInfo(process, ctypes.byref(counters), counters.size)
+        return int(counters.working_set) if ok else 0
+    try:
+        with open("/proc/self/statm", encoding="ascii") as handle:
+            return int(handle.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import resource
+    except ImportError:
+        return 0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return int(peak) if sys.platform == "darwin" else int(peak) * 1024
+
+
+def memory_guard(limit_gb: float, cancelled, estimate_gb: float | None = None):
+    """A ``cancelled`` for the core that is ``cancelled()``, but raises MemoryLimitError (naming the resident
+    memory, the limit and the estimate) once the process's resident memory exceeds ``limit_gb`` GiB."""
+    def guarded() -> bool:
+        resident = resident_bytes()
+        if resident > limit_gb * GIB:
+            estimated = f"; the bake estimated {estimate_gb:.3g} GiB" if estimate_gb is not None else ""
+            raise MemoryLimitError(
+                f"The bake stopped at {resident / GIB:.3g} GiB resident, over the Memory Limit of {limit_gb:g} GiB"
+                f"{estimated}: nothing was written. Raise the Memory Limit (--max-memory-gb), lower the quality "
+                "or the lightmap's texel density, or set objects to 'Shadow Only'.")
+        return cancelled()
+    return guarded
 
 
 def default_limit_gb() -> float:
@@ -132,8 +177,16 @@ def estimate_bake(triangles_m: np.ndarray, element_size_m: float, covered_texels
     persistent = (FIXED_BYTES + BYTES_PER_TRIANGLE * len(triangles_m) + BYTES_PER_PIECE * pieces +
                   BYTES_PER_SOLVED_SIDE * sides + BYTES_PER_IMAGE_TEXEL * image_texels +
                   BYTES_PER_PLANNED_TEXEL * planned_texels)
-    return MemoryEstimate({"solve": LINK_WORKSPACE * steps_in_flight(threads) + BYTES_PER_LINKED_SIDE * sides,
+    return MemoryEstimate({"solve": link_workspace_bytes(sides, threads) + BYTES_PER_LINKED_SIDE * sides,
                            "lightmap texels": BYTES_PER_TEXEL * covered_texels}, persistent)
+
+
+def link_workspace_bytes(sides: int, threads: int = 0) -> int:
+    """The candidate links weighed at once: a step of core.links.PAIRS_PER_STEP pairs (LINK_WORKSPACE) per step
+    in flight (core.parallel), or all the candidates where there are fewer (a side has at most
+    CANDIDATES_PER_SIDE, and no more than there are tree nodes, about twice the sides)."""
+    candidates = sides * min(CANDIDATES_PER_SIDE, 2 * sides)
+    return int(LINK_WORKSPACE * min(candidates / PAIRS_PER_STEP, steps_in_flight(threads)))
 
 
 def fit_to_memory(triangles_m: np.ndarray, element_size_m: float, limit_gb: float, covered_texels: int = 0,

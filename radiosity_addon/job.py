@@ -23,7 +23,7 @@ from ..core.atlas import AtlasSize, uv_area
 from ..core.geometry import triangle_areas
 from ..core.lightmap import Lightmap, LightmapSettings, light_texels, sample_texels
 from ..core.progress import Timer
-from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory
+from ..core.memory import GIB, MemoryLimitError, default_limit_gb, fit_to_memory, memory_guard
 from ..core.raycast import backend_name
 from ..core.staged_files import StagedFiles
 from .export import Export, export_scene, make_linked_local
@@ -140,8 +140,11 @@ def _fit_to_memory(job: Job, limit_gb: float) -> None:
 
 
 def solve(job: Job, progress, cancelled) -> None:
-    """The solve and the lightmap texels; an allocation that fails anyway (the estimate is not a promise) becomes
-    a MemoryLimitError naming the limit to lower."""
+    """The solve and the lightmap texels, stopped by a MemoryLimitError once the process's resident memory
+    exceeds the Memory Limit (core.memory.memory_guard; the estimate is not a promise); an allocation that fails
+    anyway becomes one too, naming the limit to lower."""
+    if job.memory:
+        cancelled = memory_guard(job.memory["limit_gb"], cancelled, job.memory.get("estimated_gb"))
     try:
         _solve(job, progress, cancelled)
     except MemoryError:

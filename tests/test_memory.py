@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from core.memory import (BYTES_PER_LINKED_SIDE, BYTES_PER_SOLVED_SIDE, GIB, MemoryLimitError, element_count,
-                         estimate_bake, fit_to_memory, physical_memory_bytes)
+                         estimate_bake, fit_to_memory, memory_guard, physical_memory_bytes, resident_bytes)
 
 
 def subdivided_plane(size_m: float, quads: int) -> np.ndarray:
@@ -63,3 +63,28 @@ def test_adaptive_passes_count_towards_the_estimate():
     sides = 2 * element_count(PLANE, 0.05)
     added = estimate_bake(PLANE, 0.05, adaptive_passes=2).peak_bytes - estimate_bake(PLANE, 0.05).peak_bytes
     assert added >= 3 * sides * (BYTES_PER_SOLVED_SIDE + BYTES_PER_LINKED_SIDE)
+
+
+def test_resident_memory_counts_what_the_process_touches():
+    """256 MiB of ones raise the resident memory by their size (within 10%), and freeing them lowers it again."""
+    before = resident_bytes()
+    block = np.ones(32 * 2 ** 20)  # 256 MiB of float64, every page written
+    grown = resident_bytes() - before
+    del block
+    assert grown == pytest.approx(256 * 2 ** 20, rel=0.1)
+    assert resident_bytes() < before + 128 * 2 ** 20
+
+
+def test_the_guard_stops_a_bake_once_resident_memory_exceeds_the_limit():
+    """Over the limit, the guard raises MemoryLimitError in one line naming the limit and the setting, from
+    inside a bake too (its first poll); under it, it answers as the ``cancelled`` it wraps."""
+    from core import BakeSettings, Material, Scene, SunLight, bake
+    below = (resident_bytes() - 2 ** 26) / GIB
+    with pytest.raises(MemoryLimitError) as error:
+        memory_guard(below, lambda: False, estimate_gb=0.5)()
+    message = str(error.value)
+    assert "\n" not in message and f"Memory Limit of {below:g} GiB" in message and "--max-memory-gb" in message
+    assert memory_guard(1e6, lambda: True)() is True and memory_guard(1e6, lambda: False)() is False
+    scene = Scene(PLANE[:2000], np.zeros(2000, int), [Material("grey")], lights=[SunLight("sun", (0, 0, -1), 1.0)])
+    with pytest.raises(MemoryLimitError):
+        bake(scene, BakeSettings(patch_size_m=2.0, element_size_m=1.0), cancelled=memory_guard(below, lambda: False))
