@@ -294,3 +294,28 @@ def test_a_damaged_cache_or_one_of_another_version_is_named(tmp_path, extension)
                            tmp_path / "folder.rlcache")
     assert code == 5 and "folder.rlcache" in stderr, stderr
     assert not (tmp_path / "again.blend").exists()
+
+
+@pytest.mark.parametrize("placement", ["mirrored", "10 km from the origin"])
+def test_a_mirrored_or_far_away_floor_under_a_vertical_sun_reads_its_closed_form(empty_scene, extension, tmp_path,
+                                                                                  placement):
+    """A 4 x 4 m floor (8 x 8 quads) under a sun straight down (3 W m^-2), black world, nothing else: every corner
+    colour and every covered lightmap texel reads E / pi = 3 / pi (the Diffuse bake's units) within 1%, whether
+    the floor is mirrored by a negative scale (its triangles wound the other way round) or 10 km from the origin
+    (single-precision rays and texels there resolve about a millimetre)."""
+    from radiosity_baker.core.image_file import read_image
+    from blender_setup import uv_coverage
+    far = 10_000.0 if placement.startswith("10 km") else 0.0
+    floor = grid_plane("Floor", 4.0, 8, location=(far, -far, 0.0))
+    if placement == "mirrored":
+        floor.scale = (-1.0, 1.0, 1.0)
+    add_light("SUN", (far, -far, 5.0), 3.0, angle=0.0)
+    settings = empty_scene.radiosity
+    settings.quality, settings.target, settings.lightmap_resolution = "DRAFT", "BOTH", 64
+    settings.lightmap_folder = str(tmp_path)
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    np.testing.assert_allclose(corner_colors(floor.data, "Radiosity"), 3.0 / np.pi, rtol=0.01)
+    page = read_image(str(tmp_path / "Radiosity_Lightmap.exr")).astype(np.float64)[..., :3]
+    covered = uv_coverage([floor], "Lightmap", 64, 64)
+    assert covered.sum() > 1000
+    np.testing.assert_allclose(page[covered], 3.0 / np.pi, rtol=0.01)
