@@ -1,7 +1,9 @@
 """Export what Blender renders into a core.Scene: evaluated meshes, materials, lights and the world.
 
 Geometry comes from the evaluated depsgraph (modifiers applied, instances and linked duplicates included) through
-foreach_get, in world space. Objects disabled in renders are skipped; an object's Radiosity mode can exclude it or
+foreach_get, in world space. A curve, surface, text or metaball object is listed twice by the depsgraph: as
+itself and as an instance of its own evaluated mesh; as Cycles does, only the mesh is read, so that its surface is
+not exported twice (two coincident copies, each on the other's plane, would bake and reflect as black). Objects disabled in renders are skipped; an object's Radiosity mode can exclude it or
 make it "shadow only" (casts shadows, is not baked). Light and emission conventions: docs/units.md.
 """
 from __future__ import annotations
@@ -85,7 +87,7 @@ def export_scene(context) -> Export:
     materials = _Materials()
     groups = _LightGroups(context.view_layer, materials.warnings)
     columns = {name: [] for name in COLUMNS}
-    objects, lights, names = [], [], []
+    objects, lights, names, unmeshed, meshed = [], [], [], set(), set()
     for instance in depsgraph.object_instances:
         evaluated = instance.object
         original = evaluated.original
@@ -95,17 +97,23 @@ def export_scene(context) -> Export:
         if evaluated.type == "LIGHT":
             lights.append(_light(evaluated, np.array(instance.matrix_world), groups.of(original)))
             continue
-        mode = _mode(owner) if instance.is_instance else _mode(original)
+        instanced = instance.is_instance and owner != original  # not a curve's, text's or metaball's own mesh
+        mode = _mode(owner) if instanced else _mode(original)
         if evaluated.type not in GEOMETRY_TYPES or mode == "EXCLUDE":
+            continue
+        if evaluated.type != "MESH":  # its surface comes as an instance of its own mesh, if it has one
+            if not instance.is_instance:
+                unmeshed.add(original.name)
             continue
         part = _mesh_triangles(evaluated, np.array(instance.matrix_world), materials, groups.of(original))
         if part is None:
             if not instance.is_instance:
                 materials.warnings.append(f"Object '{original.name}' has no faces: it is not baked.")
             continue
+        meshed.add(original.name)
         loops, vertices = part.pop("loops"), part.pop("vertices")
         count = len(loops)
-        name = original.name if not instance.is_instance else f"{original.name} (instance of {owner.name})"
+        name = original.name if not instanced else f"{original.name} (instance of {owner.name})"
         writable = not instance.is_instance and original.type == "MESH" and mode == "BAKE"
         source = _linked(original) if writable else ""
         if source:
@@ -124,6 +132,7 @@ def export_scene(context) -> Export:
                     terminator_offset=np.full(count, _terminator_offset(original)))
         for key, value in part.items():
             columns[key].append(value)
+    materials.warnings += [f"Object '{name}' has no faces: it is not baked." for name in sorted(unmeshed - meshed)]
     materials.warnings += [f"Library '{library.filepath}' is missing: the objects linked from it are not in the "
                            "bake (relink it: File > External Data > Find Missing Files)." for library in
                            bpy.data.libraries if not os.path.isfile(bpy.path.abspath(library.filepath))]

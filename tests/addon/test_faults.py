@@ -319,3 +319,53 @@ def test_a_mirrored_or_far_away_floor_under_a_vertical_sun_reads_its_closed_form
     covered = uv_coverage([floor], "Lightmap", 64, 64)
     assert covered.sum() > 1000
     np.testing.assert_allclose(page[covered], 3.0 / np.pi, rtol=0.01)
+
+
+def test_an_ngon_of_500_vertices_bakes_and_a_metaball_casts_its_shadow(empty_scene, extension):
+    """A disc made of one 500-vertex face, and a 4 x 4 m floor under a metaball ball (radius 0.6 m, 1.5 m up;
+    exported once, though the depsgraph lists it as itself and as its own mesh),
+    under a sun straight down (3 W m^-2), black world. Every corner of the n-gon reads E / pi = 3 / pi within 1%;
+    the floor's centre, in the ball's shadow, reads under 5% of that (only light reflected off the ball's
+    unlit underside and the floor reaches it), and its outer corners 3 / pi within 2%."""
+    angles = np.linspace(0.0, 2 * np.pi, 500, endpoint=False)
+    disc = bpy.data.meshes.new("Disc")
+    disc.from_pydata([(6.0 + np.cos(a), np.sin(a), 0.0) for a in angles], [], [list(range(500))])
+    disc_object = bpy.data.objects.new("Disc", disc)
+    bpy.context.collection.objects.link(disc_object)
+    floor = grid_plane("Floor", 4.0, 8)
+    bpy.ops.object.metaball_add(type="BALL", radius=0.6, location=(0.0, 0.0, 1.5))
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0, angle=0.0)
+    empty_scene.radiosity.quality = "DRAFT"
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    np.testing.assert_allclose(corner_colors(disc, "Radiosity"), 3.0 / np.pi, rtol=0.01)
+    colours = corner_colors(floor.data, "Radiosity").mean(axis=1)
+    vertex = np.array([loop.vertex_index for loop in floor.data.loops])
+    position = np.array([v.co[:2] for v in floor.data.vertices])[vertex]
+    centre, rim = np.linalg.norm(position, axis=1) < 1e-6, np.abs(position).max(axis=1) > 1.99
+    assert centre.any() and colours[centre].max() < 0.05 * 3.0 / np.pi
+    np.testing.assert_allclose(colours[rim], 3.0 / np.pi, rtol=0.02)
+
+
+def test_curves_text_surfaces_and_metaballs_are_exported_once(empty_scene, extension):
+    """The depsgraph lists a curve, text, NURBS surface or metaball object as itself and as an instance of its
+    own evaluated mesh; the export holds each one's triangles once (as many as its mesh's loop triangles),
+    named by the object alone, so that no surface lies on a copy of itself (which bakes black)."""
+    from radiosity_baker.radiosity_addon.export import export_scene
+    bpy.ops.object.metaball_add(type="BALL", location=(3, 0, 0))
+    bpy.ops.object.text_add(location=(0, 3, 0))
+    bpy.context.active_object.data.extrude = 0.1
+    bpy.ops.curve.primitive_bezier_circle_add(location=(0, -3, 0))
+    bpy.context.active_object.data.bevel_depth = 0.1
+    bpy.ops.surface.primitive_nurbs_surface_sphere_add(location=(-3, 0, 0))
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0)
+    export = export_scene(bpy.context)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for name in ("Mball", "Text", "BézierCircle", "SurfSphere"):
+        evaluated = bpy.data.objects[name].evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        mesh.calc_loop_triangles()
+        expected = len(mesh.loop_triangles)
+        evaluated.to_mesh_clear()
+        counts = [exported.triangle_count for exported in export.objects if exported.name == name]
+        assert expected > 100 and counts == [expected], name
+    assert not any("instance of" in name for name in export.scene.object_names)
