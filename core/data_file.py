@@ -9,8 +9,9 @@ In the tree, arrays and numpy scalars are {"array": i} and {"scalar": i}; a list
 "fields": {...}} (its attributes), or {"object": name, "state": ...} for a class that defines ``__setstate__``
 (what it gives to pickle, as core.raycast.RayCaster gives its triangles); a value met again (the same object or
 array referred to twice) is {"ref": i}, so that shared parts stay shared and cycles close. On reading, an object
-is made by ``cls.__new__`` of a class from the caller's list only, given its attributes or its state: a file that
-names any other type is refused, so a crafted file can only hold wrong numbers, never code.
+is made by ``cls.__new__`` of a class from the caller's list only, given its attributes (plain names, no dunder)
+or its state: a file that names any other type is refused, so a crafted file can only hold wrong numbers, never
+code.
 """
 from __future__ import annotations
 
@@ -179,7 +180,9 @@ class _Decoder:
             value.__setstate__(self.decode(tree["state"]))
         elif "fields" in tree and isinstance(tree["fields"], dict):
             for key, item in tree["fields"].items():
-                object.__setattr__(value, str(key), self.decode(item))  # frozen dataclasses too
+                if not key.isidentifier() or key.startswith("__"):
+                    raise ValueError(f"it sets the attribute '{key}'")
+                object.__setattr__(value, key, self.decode(item))  # frozen dataclasses too
         else:
             raise ValueError("damaged content")
         return value

@@ -92,6 +92,18 @@ def test_a_file_naming_a_type_outside_its_list_is_refused(tmp_path):
         read_data(path, "f", 1, "test file", (PointLight,))
 
 
+def test_a_file_setting_a_dunder_attribute_is_refused(tmp_path):
+    """Content that would set ``__class__`` (or any name that is not a plain attribute) on an object is refused."""
+    path = tmp_path / "dunder"
+    header = {"format": "f", "version": 1}
+    content = {"object": "SunLight", "fields": {"__class__": {"object": "SunLight", "fields": {}}}}
+    with open(path, "wb") as file:
+        np.savez(file, header=np.frombuffer(json.dumps(header).encode(), np.uint8),
+                 content=np.frombuffer(json.dumps(content).encode(), np.uint8))
+    with pytest.raises(SceneError, match="__class__"):
+        read_data(str(path), "f", 1, "test file", (SunLight,))
+
+
 def test_values_keep_their_types_and_sharing(tmp_path):
     """Tuples, sets, dicts with any keys, numpy scalars, NaN and arrays come back as they went; an array or list
     held twice is one object after reading, as before writing."""
