@@ -13,6 +13,7 @@ MemoryLimitError once the process's resident memory exceeds the limit, before an
 from __future__ import annotations
 
 import ctypes
+import importlib
 import os
 import sys
 from dataclasses import dataclass
@@ -26,6 +27,8 @@ from .geometry import longest_edges, triangle_areas, triangle_unit_normals
 from .links import PAIRS_PER_STEP
 from .parallel import steps_in_flight
 from .ragged import row_groups
+
+resource = None if sys.platform == "win32" else importlib.import_module("resource")  # POSIX only
 
 DEFAULT_SHARE = 0.75
 GIB = 2 ** 30
@@ -95,9 +98,7 @@ def resident_bytes() -> int:
             return int(handle.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
     except (OSError, ValueError, IndexError):
         pass
-    try:
-        import resource
-    except ImportError:
+    if resource is None:
         return 0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return int(peak) if sys.platform == "darwin" else int(peak) * 1024
