@@ -128,8 +128,7 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
     """Solve the scene's diffuse light; raises BakeCancelled if ``cancelled()`` turns True. ``caster``: a
     ray-casting scene of ``scene.triangles`` already built, for a caller that shares it with work of its own
     alongside the solve (lightmap texels planned meanwhile); else the bake builds one."""
-    emissive = scene.emitted_radiance.max(axis=1)[scene.material_index] > 0
-    check_bake_memory(scene.triangles[~scene.casts_only], scene.triangles[emissive], settings.element_size_m,
+    check_bake_memory(scene.triangles[~scene.casts_only], scene.triangles[scene.emissive], settings.element_size_m,
                       settings.patch_size_m, settings.max_memory_gb or default_limit_gb(), settings.threads,
                       settings.adaptive_passes if settings.solver == "hierarchical" else 0)
     timer = Timer()

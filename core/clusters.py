@@ -10,8 +10,9 @@ cluster radiosity groups faces (Willmott, Heckbert & Garland 1999):
   of a light's pieces lit the rim of a ceiling's opening, 0.5 mm from the light, at twice the light's radiance),
   and no element spreads a light's emission over the surface around it;
 - smaller pieces, and slivers (a 3 m strip of moulding 2 cm wide, cut into pieces no longer than the element
-  size, would otherwise make dozens of elements of a few square centimetres each), group by a grid cell of the element size and a bin of their normal direction (24 bins: a cube
-  face and a quadrant of it), so an element is about as large as the element size and turns one way;
+  size, would otherwise make dozens of elements of a few square centimetres each), group by a grid cell of the
+  element size and a bin of their normal direction (24 bins: a cube face and a quadrant of it), so an element is
+  about as large as the element size and turns one way;
 - then split wherever a piece cannot see its cluster's centre (a ray between the two, lifted off the surface by
   a quarter of the element size, but at most half way to the surface in front of it, is blocked): no element
   straddles a wall, so no element averages the sunlit ground outside with the floor inside, nor a soffit in the
@@ -108,8 +109,7 @@ def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_s
     centroid = corners.mean(axis=1)
     origin = centroid.min(axis=0) if len(centroid) else np.zeros(3)
     cell = np.floor((centroid - origin) / size[:, None]).astype(np.int64)
-    material = scene.material_index[mesh.triangle_scene[mesh.node_triangle[nodes]]]
-    emits = (scene.emitted_radiance > 0).any(axis=1)[material]
+    emits = scene.emissive[mesh.triangle_scene[mesh.node_triangle[nodes]]]
     alone = np.where(stands_alone(longest_edges(corners), area, size) | emits, np.arange(len(nodes)), -1)
     level = np.round(np.log2(size.max() / size)).astype(np.int64) if len(size) else np.zeros(0, np.int64)
     key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None], level[:, None]], axis=1)

@@ -31,7 +31,7 @@ class DirectLighting:
                  samples_per_edge: int, seed: int):
         self.scene, self.caster, self.offset_m = scene, caster, offset_m
         self.samples_per_edge, self.seed = samples_per_edge, seed
-        emissive = (scene.emitted_radiance[scene.material_index].max(axis=1) > 0) & ~scene.casts_only
+        emissive = scene.emissive & ~scene.casts_only
         self.sources, self.exitance = None, np.zeros((0, 3))
         if emissive.any():
             mesh = build_mesh(scene, emitter_size_m, emitter_size_m, np.flatnonzero(emissive))

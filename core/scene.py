@@ -249,6 +249,11 @@ class Scene:
         return np.array([m.emitted_radiance for m in self.materials], dtype=np.float64).reshape(-1, 3)
 
     @property
+    def emissive(self) -> np.ndarray:
+        """(T,) bool: the triangles whose material emits light in some channel."""
+        return (self.emitted_radiance > 0).any(axis=1)[self.material_index]
+
+    @property
     def light_groups(self) -> list[str]:
         """The light groups that emit light here (Cycles' light groups: lamps, emissive materials and the world
         each belong to one, or to none, ""), sorted, "" first when anything ungrouped emits."""
