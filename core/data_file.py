@@ -5,10 +5,11 @@ A file has three kinds of members: ``header`` (JSON: the format's name and versi
 wants to read without the rest, such as a cache's key), ``content`` (JSON: the value's tree) and ``array_<i>``
 (.npy arrays, read with ``allow_pickle=False``, so no object array, which only pickle could restore, is read).
 In the tree, arrays and numpy scalars are {"array": i} and {"scalar": i}; a list, tuple, set or dict is
-{"list": [...]}, {"tuple": [...]}, {"set": [...]} or {"dict": [[key, value], ...]}; an instance of one of the caller's classes is {"object": name,
-"fields": {...}} (its attributes), or {"object": name, "state": ...} for a class that defines ``__setstate__``
-(what it gives to pickle, as core.raycast.RayCaster gives its triangles); a value met again (the same object or
-array referred to twice) is {"ref": i}, so that shared parts stay shared and cycles close. On reading, an object
+{"list": [...]}, {"tuple": [...]}, {"set": [...]} or {"dict": [[key, value], ...]}; an instance of one of the
+caller's classes is {"object": name, "fields": {...}} (its attributes), or {"object": name, "state": ...} for a
+class that defines ``__setstate__`` (what it gives to pickle, as core.raycast.RayCaster gives its triangles); a
+value met again (the same object or array referred to twice) is {"ref": i}, so that shared parts stay shared and
+cycles close. On reading, an object
 is made by ``cls.__new__`` of a class from the caller's list only, given its attributes (plain names, no dunder)
 or its state: a file that names any other type is refused, so a crafted file can only hold wrong numbers, never
 code.

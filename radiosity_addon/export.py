@@ -3,8 +3,9 @@
 Geometry comes from the evaluated depsgraph (modifiers applied, instances and linked duplicates included) through
 foreach_get, in world space. A curve, surface, text or metaball object is listed twice by the depsgraph: as
 itself and as an instance of its own evaluated mesh; as Cycles does, only the mesh is read, so that its surface is
-not exported twice (two coincident copies, each on the other's plane, would bake and reflect as black). Objects disabled in renders are skipped; an object's Radiosity mode can exclude it or
-make it "shadow only" (casts shadows, is not baked). Light and emission conventions: docs/units.md.
+not exported twice (two coincident copies, each on the other's plane, would bake and reflect as black). Objects
+disabled in renders are skipped; an object's Radiosity mode can exclude it or make it "shadow only" (casts
+shadows, is not baked). Light and emission conventions: docs/units.md.
 """
 from __future__ import annotations
 
