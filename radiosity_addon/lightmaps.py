@@ -26,7 +26,7 @@ from ..core.atlas import (AtlasLayout, AtlasSize, chart_areas, layout_atlas, mod
 from ..core.geometry import triangle_areas
 from ..core.image_file import HALF_MAX, check_image, write_exr, write_png
 from ..core.staged_files import StagedFiles
-from .export import Export, ExportedObject, loop_triangles, world_positions
+from .export import Export, ExportedObject, local_by_name, loop_triangles, world_positions
 from .settings import UserSettings, light_group_output
 
 OWNED_UV = "radiosity_lightmap_uv"
@@ -109,17 +109,18 @@ def _plan_on_existing_uv_map(context, export: Export, user: UserSettings, size: 
     if not objects:
         raise SceneError(NOTHING_TO_BAKE)
     uv_map = user.lightmap_uv_map
-    lacking = [item.name for item in objects if uv_map not in bpy.data.meshes[item.mesh_name].uv_layers]
+    meshes, blender_objects = local_by_name(bpy.data.meshes), local_by_name(bpy.data.objects)
+    lacking = [item.name for item in objects if uv_map not in meshes[item.mesh_name].uv_layers]
     if lacking:
         raise SceneError(f"Object(s) {', '.join(map(repr, lacking))} have no UV map '{uv_map}' to bake the "
                          "lightmap onto; add one, or let the bake make a new UV map.")
     depsgraph = context.evaluated_depsgraph_get()
-    rendered_uv = [_evaluated_uvs(depsgraph, item, uv_map) for item in objects]
+    rendered_uv = [_evaluated_uvs(depsgraph, blender_objects[item.name], item, uv_map) for item in objects]
     dropped = [item.name for item, uv in zip(objects, rendered_uv) if uv is None]
     if dropped:
         raise SceneError(f"The modifiers of {', '.join(map(repr, dropped))} do not keep the UV map "
                          f"'{uv_map}'; apply them, or let the bake make a new UV map.")
-    areas_m2 = np.array([_area_m2(export, item) * _lightmap_scale(item) ** 2 for item in objects])
+    areas_m2 = np.array([_area_m2(export, item) * item.lightmap_scale ** 2 for item in objects])
     areas_uv = np.array([max(uv_area(uv), 1e-12) for uv in rendered_uv])
     side = size.existing_uv_side(areas_m2, areas_uv)
     page = pages_without_overlap(rendered_uv, side, side)
@@ -184,8 +185,9 @@ def checked(plan: LightmapPlan) -> LightmapPlan:
 def _lightmap_objects(export: Export, uv_map: str) -> list[ExportedObject]:
     """The baked mesh objects; raises SceneError naming a mesh whose lightmap UV map name is taken."""
     objects = [item for item in export.objects if item.writable]
+    meshes = local_by_name(bpy.data.meshes)
     for item in objects:
-        mesh = bpy.data.meshes[item.mesh_name]
+        mesh = meshes[item.mesh_name]
         if uv_map in mesh.uv_layers and mesh.get(OWNED_UV) != uv_map:
             raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a UV map '{uv_map}' "
                              "that this add-on did not make; choose another lightmap UV map name.")
@@ -198,7 +200,9 @@ def _unwrap(export: Export, objects: list[ExportedObject], size: AtlasSize):
     first_user: dict[str, int] = {}
     for index, item in enumerate(objects):
         first_user.setdefault(item.mesh_name, index)
-    sources = [_unwrap_input(export, objects[index]) for index in first_user.values()]
+    blender_objects = local_by_name(bpy.data.objects)
+    sources = [_unwrap_input(export, objects[index], blender_objects[objects[index].name])
+               for index in first_user.values()]
     position = {name: number for number, name in enumerate(first_user)}
     layout = layout_atlas([(positions, vertices) for positions, vertices, _ in sources],
                           [position[item.mesh_name] for item in objects], size)
@@ -209,11 +213,11 @@ def _unwrap(export: Export, objects: list[ExportedObject], size: AtlasSize):
     return layout, mesh_uvs, uv_offsets
 
 
-def _unwrap_input(export: Export, item: ExportedObject) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _unwrap_input(export: Export, item: ExportedObject, obj) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World-space vertex positions (scaled by the object's lightmap scale), (t, 3) triangle vertex indices and
     the (t, 3) loops of the original mesh they stand for: the rendered triangles when the modifiers keep the
     topology, else the original mesh's."""
-    obj, scale = bpy.data.objects[item.name], _lightmap_scale(item)
+    scale = item.lightmap_scale
     if item.same_topology:
         triangles = export.input_triangles[item.first_triangle:item.first_triangle + item.triangle_count]
         positions = np.zeros((int(item.corner_vertices.max()) + 1, 3))
@@ -221,10 +225,6 @@ def _unwrap_input(export: Export, item: ExportedObject) -> tuple[np.ndarray, np.
         return positions * scale, item.corner_vertices, item.corner_loops
     vertices, loops = loop_triangles(obj.data)
     return world_positions(obj.data, np.array(obj.matrix_world)) * scale, vertices, loops
-
-
-def _lightmap_scale(item: ExportedObject) -> float:
-    return getattr(getattr(bpy.data.objects[item.name], "radiosity", None), "lightmap_scale", 1.0)
 
 
 def _area_m2(export: Export, item: ExportedObject) -> float:
@@ -241,18 +241,19 @@ def _rendered_uvs(context, objects, layout: AtlasLayout, mesh_uvs, uv_offsets, u
     if not changed:
         return baked
     meshes = {objects[index].mesh_name for index in changed}
+    blender_objects = local_by_name(bpy.data.objects)
     with _uv_maps_set(meshes, uv_map, mesh_uvs):
         depsgraph = context.evaluated_depsgraph_get()
         for index in changed:
-            corner_uv = _evaluated_uvs(depsgraph, objects[index], uv_map)
+            corner_uv = _evaluated_uvs(depsgraph, blender_objects[objects[index].name], objects[index], uv_map)
             offset = uv_offsets[index] if uv_offsets[index] is not None else 0.0
             baked[index] = None if corner_uv is None else corner_uv + offset
     return baked
 
 
-def _evaluated_uvs(depsgraph, item: ExportedObject, uv_map: str) -> np.ndarray | None:
+def _evaluated_uvs(depsgraph, obj, item: ExportedObject, uv_map: str) -> np.ndarray | None:
     """(t, 3, 2) UVs of the object's rendered triangles in the UV map as its modifiers leave it (None: dropped)."""
-    evaluated = bpy.data.objects[item.name].evaluated_get(depsgraph)
+    evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
     try:
         layer = mesh.uv_layers.get(uv_map)
@@ -269,9 +270,9 @@ def _evaluated_uvs(depsgraph, item: ExportedObject, uv_map: str) -> np.ndarray |
 def _uv_maps_set(mesh_names, uv_map: str, mesh_uvs):
     """Temporarily give these meshes the planned lightmap UV map (a previous bake's is restored after, a new
     one removed, and the active UV maps kept)."""
-    saved = []
+    saved, meshes = [], local_by_name(bpy.data.meshes)
     for name in mesh_names:
-        mesh = bpy.data.meshes[name]
+        mesh = meshes[name]
         layer = mesh.uv_layers.get(uv_map)
         previous = None
         if layer is not None:
@@ -300,7 +301,7 @@ def _uv_problems(export: Export, objects, layout: AtlasLayout, mesh_uvs, rendere
     """Object index -> why its rendered lightmap UVs cannot be baked, for those that cannot."""
     problems = {}
     for index, item in enumerate(objects):
-        uv_per_m2 = (layout.texels_per_metre * _lightmap_scale(item)) ** 2 / (layout.width * layout.height)
+        uv_per_m2 = (layout.texels_per_metre * item.lightmap_scale) ** 2 / (layout.width * layout.height)
         problem = None if item.same_topology else modifier_uv_problem(
             rendered_uv[index], mesh_uvs[item.mesh_name][1], _area_m2(export, item), uv_per_m2)
         if problem:
@@ -324,11 +325,12 @@ def write_lightmap(plan: LightmapPlan, lights: list[np.ndarray], metadata: dict,
     # Every file first: writing may fail, and nothing in the .blend has changed yet.
     files = [_write_files(user, name, light, metadata, folder, staged) for name, light in
              zip(plan.image_names, lights)]
+    meshes, blender_objects = local_by_name(bpy.data.meshes), local_by_name(bpy.data.objects)
     for name, (loops, corner_uv) in plan.mesh_uvs.items():
-        _write_uv_map(bpy.data.meshes[name], user.lightmap_uv_map, loops, corner_uv)
-        bpy.data.meshes[name][OWNED_UV] = user.lightmap_uv_map
+        _write_uv_map(meshes[name], user.lightmap_uv_map, loops, corner_uv)
+        meshes[name][OWNED_UV] = user.lightmap_uv_map
     for item, offset, page in zip(plan.objects, plan.uv_offsets, layout.page):
-        obj = bpy.data.objects[item.name]
+        obj = blender_objects[item.name]
         _set_property(obj, PAGE_PROPERTY, int(page) if layout.page_count > 1 else None)
         _set_property(obj, OFFSET_PROPERTY, None if offset is None else offset.tolist())
     images = [_load_image(name, file, user.lightmap_image, page) for page, (name, file) in

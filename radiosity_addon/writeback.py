@@ -14,7 +14,7 @@ import numpy as np
 
 from ..core import BakeCancelled, SceneError
 from ..core.vertex_light import corner_light, projected_points
-from .export import RADIOSITY_MESH_TAG, Export, ExportedObject
+from .export import RADIOSITY_MESH_TAG, Export, ExportedObject, local_by_name
 from .settings import UserSettings, light_group_output
 
 OWNED_ATTRIBUTE = "radiosity_attribute"
@@ -25,8 +25,9 @@ CORNERS_PER_BATCH = 1 << 14  # mesh corners lit per call when many objects are b
 
 def check_attribute_name_free(export: Export, name: str) -> None:
     """Refuse, before any work, to overwrite a colour attribute the user made with the same name."""
+    meshes = local_by_name(bpy.data.meshes)
     for item in export.objects:
-        mesh = bpy.data.meshes.get(item.mesh_name) if item.writable else None
+        mesh = meshes.get(item.mesh_name) if item.writable else None
         if mesh is not None and name in mesh.color_attributes and name not in _owned(mesh):
             raise SceneError(f"Mesh '{mesh.name}' (object '{item.name}') already has a colour attribute '{name}' "
                              "that this add-on did not make; choose another attribute name.")
@@ -47,10 +48,11 @@ def write_vertex_colors(export: Export, user: UserSettings, light_of,
     it keeps the first one's colours, with a warning."""
     written, outputs, warnings, copied = {}, [], [], []
     holders = {item.name for item in colour_holders(export.objects, user.own_mesh_copies)}
+    objects, meshes = local_by_name(bpy.data.objects), local_by_name(bpy.data.meshes)
     for item in export.objects:
         if not item.writable:
             continue
-        obj, mesh = bpy.data.objects[item.name], bpy.data.meshes[item.mesh_name]
+        obj, mesh = objects[item.name], meshes[item.mesh_name]
         if item.name not in holders:
             warnings.append(f"Object '{item.name}' shares mesh '{mesh.name}' with '{written[mesh.name]}': its colour "
                             "attribute holds the light of the first of them.")

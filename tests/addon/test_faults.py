@@ -369,3 +369,80 @@ def test_curves_text_surfaces_and_metaballs_are_exported_once(empty_scene, exten
         counts = [exported.triangle_count for exported in export.objects if exported.name == name]
         assert expected > 100 and counts == [expected], name
     assert not any("instance of" in name for name in export.scene.object_names)
+    for name, kind in (("Mball", "metaball"), ("Text", "text"), ("BézierCircle", "curve"), ("SurfSphere", "surface")):
+        named = [warning for warning in export.warnings if f"'{name}'" in warning]
+        assert len(named) == 1 and f"is a {kind} object" in named[0], export.warnings
+
+
+def test_ten_thousand_small_objects_bake(empty_scene, extension, tmp_path):
+    """10,000 objects of one 10 cm quad each (a mesh of its own each; 20 cm apart, 100 x 100), sun straight down
+    (3 W m^-2), black world, Draft, both targets. In one plane nothing shades or lights another: every corner
+    colour and, through the saved UV map, the lightmap texel under each quad's centre read E / pi = 3 / pi within
+    1%, and no two quads' centres share a texel."""
+    from radiosity_baker.core.image_file import read_image
+    material = bpy.data.materials.new("Grey")
+    tiles = []
+    for index in range(10_000):
+        x, y = index % 100 * 0.2, index // 100 * 0.2
+        mesh = bpy.data.meshes.new(f"Tile {index}")
+        mesh.from_pydata([(x, y, 0.0), (x + 0.1, y, 0.0), (x + 0.1, y + 0.1, 0.0), (x, y + 0.1, 0.0)], [],
+                         [(0, 1, 2, 3)])
+        mesh.materials.append(material)
+        tiles.append(bpy.data.objects.new(f"Tile {index}", mesh))
+        empty_scene.collection.objects.link(tiles[-1])
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0, angle=0.0)
+    settings = empty_scene.radiosity
+    settings.quality, settings.target, settings.lightmap_folder = "DRAFT", "BOTH", str(tmp_path)
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    colours = np.concatenate([corner_colors(tile.data, "Radiosity") for tile in tiles])
+    np.testing.assert_allclose(colours, 3.0 / np.pi, rtol=0.01)
+    page = read_image(str(tmp_path / "Radiosity_Lightmap.exr")).astype(np.float64)[..., :3]
+    centres = np.empty((len(tiles), 2))
+    for index, tile in enumerate(tiles):
+        uv = np.empty(8, dtype=np.float32)
+        tile.data.uv_layers["Lightmap"].data.foreach_get("uv", uv)
+        centres[index] = uv.reshape(4, 2).mean(axis=0)
+    height, width = page.shape[:2]
+    texels = page[(centres[:, 1] * height).astype(int), (centres[:, 0] * width).astype(int)]
+    np.testing.assert_allclose(texels, 3.0 / np.pi, rtol=0.01)
+    assert len(np.unique((centres * [width, height]).astype(int), axis=0)) == len(tiles)
+
+
+def scatter_cubes(host, side: float, count: int, cube_size: float):
+    """Replace ``host``'s geometry by geometry nodes: a cube of ``cube_size`` m instanced on each point of a
+    ``count`` x ``count`` grid ``side`` m wide (instances, not realized)."""
+    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    grid, cube = tree.nodes.new("GeometryNodeMeshGrid"), tree.nodes.new("GeometryNodeMeshCube")
+    for axis in "XY":
+        grid.inputs[f"Size {axis}"].default_value, grid.inputs[f"Vertices {axis}"].default_value = side, count
+    cube.inputs["Size"].default_value = (cube_size,) * 3
+    scatter = tree.nodes.new("GeometryNodeInstanceOnPoints")
+    tree.links.new(grid.outputs["Mesh"], scatter.inputs["Points"])
+    tree.links.new(cube.outputs["Mesh"], scatter.inputs["Instance"])
+    tree.links.new(scatter.outputs["Instances"], tree.nodes.new("NodeGroupOutput").inputs[0])
+    host.modifiers.new("Scatter", "NODES").node_group = tree
+
+
+def test_geometry_node_instances_cast_their_shadows_and_are_named(empty_scene, extension):
+    """Nine 0.6 m cubes instanced by geometry nodes on a 3 x 3 grid 2 m wide, centred 1 m over a 4 x 4 m floor
+    (8 x 8 quads), sun straight down (3 W m^-2), black world. The instances cannot hold baked light: the report
+    names their object once. They still light the scene: floor corners under a cube get no direct light, only what
+    the cube's underside reflects (view factor about 0.2 times its light, itself under the floor's), so they read
+    under 0.2 x E / pi; the floor's outer corners, 1.4 m from the nearest cube, read E / pi = 3 / pi within 2%."""
+    floor = grid_plane("Floor", 4.0, 8)
+    scatter_cubes(grid_plane("Scatter", 2.0, 1, location=(0.0, 0.0, 1.0)), 2.0, 3, 0.6)
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0, angle=0.0)
+    empty_scene.radiosity.quality, empty_scene.radiosity.target = "DRAFT", "VERTEX_COLORS"
+    from radiosity_baker.radiosity_addon.export import export_scene
+    warnings = [warning for warning in export_scene(bpy.context).warnings if "'Scatter'" in warning]
+    assert len(warnings) == 1 and "9 geometry-node instance(s)" in warnings[0], warnings
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    colours = corner_colors(floor.data, "Radiosity").mean(axis=1) / (3.0 / np.pi)
+    vertex = np.array([loop.vertex_index for loop in floor.data.loops])
+    position = np.array([v.co[:2] for v in floor.data.vertices])[vertex]
+    under = (np.abs(position - np.round(position)).max(axis=1) < 1e-6) & (np.abs(position).max(axis=1) < 1.01)
+    outer = np.abs(position).min(axis=1) > 1.99
+    assert under.sum() == 9 * 4 and outer.sum() == 4
+    assert colours[under].max() < 0.2, colours[under]
+    np.testing.assert_allclose(colours[outer], 1.0, rtol=0.02)
