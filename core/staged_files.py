@@ -4,15 +4,22 @@ Each file is written under a hidden temporary name in its target's folder, flush
 (read back by the caller's check), and only when every file of the bake is staged are they all renamed over their
 targets. A rename within one folder is atomic on POSIX and on NTFS (os.replace), so a full disk, a failing check,
 an error or an interrupt before the commit leaves every earlier file as it was and no temporary behind.
+
+A bake claims its main output for as long as it runs (``claimed``), so that two bakes started at once into the
+same file cannot mix their files: the second one stops at once, naming the file and the process that holds it.
 """
 from __future__ import annotations
 
+import contextlib
+import importlib
 import itertools
 import os
 import signal
-from typing import Callable
+from typing import Callable, Iterator
 
 from .errors import OutputError
+
+locking = importlib.import_module("msvcrt" if os.name == "nt" else "fcntl")  # the platform's file locks
 
 _numbers = itertools.count()
 
@@ -85,6 +92,67 @@ class StagedFiles:
             os.remove(path)
         except FileNotFoundError:
             pass
+
+
+@contextlib.contextmanager
+def claimed(target: str) -> Iterator[None]:
+    """Hold the claim on writing ``target`` while the block runs; raises OutputError naming ``target`` and the
+    holder's process id if another process holds it. The claim is an advisory lock (flock, or msvcrt's byte lock
+    on Windows) on a hidden file ``.NAME.claim`` beside the target, removed on release. The operating system
+    drops the lock of a process that dies, so a file left by a killed bake claims nothing."""
+    folder, name = os.path.split(os.path.abspath(target))
+    path = os.path.join(folder, f".{name}.claim")
+    descriptor = _lock(path, target)
+    try:
+        os.ftruncate(descriptor, 0)
+        os.write(descriptor, str(os.getpid()).encode())
+        yield
+    finally:
+        if os.name == "nt":  # an open file cannot be removed there; a bake claiming it between the two is harmless
+            os.close(descriptor)
+            with contextlib.suppress(OSError):
+                os.remove(path)
+        else:  # removed while locked, so that no one locks the removed file (see _lock)
+            os.remove(path)
+            os.close(descriptor)
+
+
+def _lock(path: str, target: str) -> int:
+    """An open descriptor of ``path`` holding its exclusive lock, which is the file ``path`` names now (a holder
+    may remove it between our open and our lock)."""
+    while True:
+        try:
+            descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as error:
+            raise OutputError(f"Cannot write '{target}': {error.strerror or error}.") from error
+        try:
+            if os.name == "nt":
+                locking.locking(descriptor, locking.LK_NBLCK, 1)
+            else:
+                locking.flock(descriptor, locking.LOCK_EX | locking.LOCK_NB)
+        except OSError:
+            holder = _holder(descriptor)
+            os.close(descriptor)
+            raise OutputError(f"Another bake (process {holder}) is writing '{target}': wait for it to finish, or "
+                              "choose another output.") from None
+        if os.name == "nt" or _same_file(descriptor, path):
+            return descriptor
+        os.close(descriptor)
+
+
+def _holder(descriptor: int) -> str:
+    """The process id a claim's holder wrote into it (Windows refuses to read a locked byte)."""
+    try:
+        return os.read(descriptor, 32).decode(errors="replace").strip() or "unknown"
+    except OSError:
+        return "unknown"
+
+
+def _same_file(descriptor: int, path: str) -> bool:
+    try:
+        return os.path.samestat(os.fstat(descriptor), os.stat(path))
+    except FileNotFoundError:
+        return False
 
 
 def _flush_to_disk(path: str) -> None:

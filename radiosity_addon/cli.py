@@ -20,12 +20,13 @@ import signal
 import sys
 import threading
 import time
+from dataclasses import replace
 
 import bpy
 
 from ..core import BakeCancelled, OutputError, SceneError, SettingsError
 from ..core.atlas import atlas_size
-from ..core.staged_files import StagedFiles
+from ..core.staged_files import StagedFiles, claimed
 from . import job as bake_job
 from .settings import BY_NAME, SETTINGS, Setting, UserSettings
 
@@ -75,6 +76,9 @@ def build_parser(prog: str) -> argparse.ArgumentParser:
     for setting in SETTINGS:
         if setting.flag:
             parser.add_argument(setting.flag, dest=setting.name, default=argparse.SUPPRESS, **_option(setting))
+        if setting.flag and setting.kind is bool:  # the file's setting may be on: a switch back
+            parser.add_argument(f"--no-{setting.flag[2:]}", dest=setting.name, default=argparse.SUPPRESS,
+                                action="store_const", const=setting.negate, help=f"undoes {setting.flag}")
     return parser
 
 
@@ -83,28 +87,31 @@ def _option(setting: Setting) -> dict:
     bounds; help gives the default (the bpy property's)."""
     text = setting.help.replace("%", "%%")
     if setting.kind is bool:
-        action = "store_false" if setting.negate else "store_true"
-        return {"action": action, "help": f"sets {setting.label} off: {text}" if setting.negate else text}
+        return {"action": "store_const", "const": not setting.negate,
+                "help": f"sets {setting.label} off: {text}" if setting.negate else text}
     if setting.items:
         return {"choices": [item[0].lower() for item in setting.items], "type": str.lower,
-                "help": f"{text} (default: {str(setting.default).lower()})"}
+                "help": f"{text} (default: the input's; {str(setting.default).lower()} in a new file)"}
     metavar = setting.flag.lstrip("-").upper().replace("-", "_")
     if setting.kind is str:
-        return {"metavar": metavar, "help": f"{text} (default: {setting.default})"}
+        return {"metavar": metavar, "help": f"{text} (default: the input's; '{setting.default}' in a new file)"}
     return {"type": _number(setting.kind, setting.low, setting.high), "metavar": metavar,
-            "help": f"{text} (default: {setting.default:g}; from {setting.low:g} to {setting.high:g})"}
+            "help": f"{text} (default: the input's; {setting.default:g} in a new file; from {setting.low:g} to "
+                    f"{setting.high:g})"}
 
 
-def user_settings(args: argparse.Namespace) -> UserSettings:
-    """UserSettings from parsed arguments: the options given, the table's defaults for the rest. An enum's
-    choice is matched to its identifier; --png-exposure also asks for the PNG."""
+def user_settings(args: argparse.Namespace, saved: UserSettings = UserSettings()) -> UserSettings:
+    """UserSettings from parsed arguments: the options given, and for the rest the ``saved`` ones (the input
+    file's Radiosity panel, as Blender renders a file with its own render settings; the table's defaults for a
+    file saved without the add-on). An enum's choice is matched to its identifier; --png-exposure also asks for
+    the PNG."""
     given = {name: value for name, value in vars(args).items() if name in BY_NAME}
     for name, value in given.items():
         items = {item[0].lower(): item[0] for item in BY_NAME[name].items}
         given[name] = items.get(value, value)
     if "lightmap_png_exposure" in given:
         given["lightmap_png"] = True
-    return UserSettings(**given)
+    return replace(saved, **given)
 
 
 def run(argv: list[str], prog: str = "radiosity_bake") -> int:
@@ -156,12 +163,20 @@ def _bake(args) -> dict:
 
 
 def _checked_bake(args) -> dict:
-    user = user_settings(args)
-    folder = _check_arguments(args, user)
+    _check_input(args)
     try:
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.input), load_ui=False)
     except RuntimeError as error:
         raise CommandError(EXIT_INPUT, f"cannot read {args.input}: {str(error).strip().splitlines()[-1]}")
+    saved = getattr(bpy.context.scene, "radiosity", None)
+    user = user_settings(args, saved.user_settings() if saved is not None else UserSettings())
+    folder = _check_outputs(args, user)
+    with claimed(args.output):
+        return _claimed_bake(args, user, folder)
+
+
+def _claimed_bake(args, user: UserSettings, folder: str) -> dict:
+    """Bake the open file and write every output, with the output file claimed (core.staged_files.claimed)."""
     started = time.perf_counter()
     if args.relight:
         job = bake_job.relight_job(bpy.context, user, folder, os.path.abspath(args.relight))
@@ -182,22 +197,27 @@ def _checked_bake(args) -> dict:
     return report
 
 
-def _check_arguments(args, user: UserSettings) -> str:
-    """What argparse cannot check alone, before the input is read: the input file, the output against the input,
-    the lightmap's size settings, and that every output folder is writable; returns the lightmaps' absolute folder
-    (a leading // is the folder of OUT.blend)."""
+def _check_input(args) -> None:
+    """What argparse cannot check alone about the files read, before the input is opened: the input and the
+    relighting cache exist, and the output is not the input unless --overwrite is given."""
     if os.path.isdir(args.input):
         raise CommandError(EXIT_INPUT, f"the input is a folder, not a .blend file: {args.input}")
     if not os.path.isfile(args.input):
         raise CommandError(EXIT_INPUT, f"input file not found: {args.input}")
     if args.relight and not os.path.isfile(args.relight):
         raise CommandError(EXIT_INPUT, f"relighting cache not found: {args.relight}")
-    if args.relight and user.relight_cache:
-        raise CommandError(EXIT_BAD_ARGUMENT, "--relight writes from a cache and bakes nothing, so it cannot write "
-                                              "a new one with --cache")
     if os.path.exists(args.output) and os.path.samefile(args.input, args.output) and not args.overwrite:
         raise CommandError(EXIT_BAD_ARGUMENT, f"the output is the input file {args.input}: pass --overwrite to "
                                               "replace it, or give another -o")
+
+
+def _check_outputs(args, user: UserSettings) -> str:
+    """What argparse cannot check alone about the settings and outputs, before any work: --relight against a
+    cache to write, the lightmap's size settings, and that every output folder is writable; returns the
+    lightmaps' absolute folder (a leading // is the folder of OUT.blend)."""
+    if args.relight and "relight_cache" in vars(args):  # given: a cache path saved in the file is not used
+        raise CommandError(EXIT_BAD_ARGUMENT, "--relight writes from a cache and bakes nothing, so it cannot write "
+                                              "a new one with --cache")
     if user.lightmaps:
         atlas_size(user.texels_per_metre, user.lightmap_resolution, 1.0, user.lightmap_padding,
                    user.lightmap_max_size)  # raises SettingsError for settings that conflict

@@ -1,6 +1,8 @@
 """Helpers for add-on tests with the bpy module: load the extension package, build scenes, bake with Cycles."""
 from __future__ import annotations
 
+import ctypes
+import os
 import resource
 import runpy
 import signal
@@ -18,15 +20,30 @@ def load_extension():
     return runpy.run_path(str(ROOT / "radiosity_addon" / "__main__.py"), run_name="loader")["load_package"]()
 
 
-def run_cli(*args, file_size_limit: int | None = None) -> tuple[int, str]:
-    """(exit code, stderr) of ``python -m radiosity_addon bake ARGS``; with ``file_size_limit`` no file the bake
-    writes may grow past that many bytes (a write beyond it fails with EFBIG, as on a full disk)."""
+def run_cli(*args, file_size_limit: int | None = None, honour_permissions: bool = False,
+            python: Path | str = sys.executable) -> tuple[int, str]:
+    """(exit code, stderr) of ``python -m radiosity_addon bake ARGS`` (by default on this process's Python and
+    its bpy); with ``file_size_limit`` no file the bake
+    writes may grow past that many bytes (a write beyond it fails with EFBIG, as on a full disk); with
+    ``honour_permissions`` a bake run as root obeys file modes as any user does (CAP_DAC_OVERRIDE and
+    CAP_DAC_READ_SEARCH leave its capability bounding set, so that a read-only folder is read-only to it)."""
     def limit_file_size():
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (file_size_limit, file_size_limit))
-    result = subprocess.run([sys.executable, "-m", "radiosity_addon", "bake", *map(str, args)], cwd=ROOT,
-                            capture_output=True, text=True, timeout=600,
-                            preexec_fn=limit_file_size if file_size_limit else None)
+
+    def drop_permission_overrides():
+        libc = ctypes.CDLL(None, use_errno=True)
+        for capability in (1, 2):  # CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH (linux/capability.h)
+            if libc.prctl(24, capability, 0, 0, 0) != 0:  # PR_CAPBSET_DROP
+                raise OSError(ctypes.get_errno(), "prctl(PR_CAPBSET_DROP)")
+
+    def prepare():
+        if file_size_limit:
+            limit_file_size()
+        if honour_permissions and os.geteuid() == 0:
+            drop_permission_overrides()
+    result = subprocess.run([str(python), "-m", "radiosity_addon", "bake", *map(str, args)], cwd=ROOT,
+                            capture_output=True, text=True, timeout=600, preexec_fn=prepare)
     return result.returncode, result.stderr
 
 

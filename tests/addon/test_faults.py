@@ -3,6 +3,7 @@ number, and odd scenes. In every case the exit code and the one-line reason are 
 files keep their bytes, and no temporary file is left behind."""
 import hashlib
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -49,6 +50,30 @@ def test_a_full_disk_keeps_every_earlier_output(baked, fails):
                            "--seed", "1", file_size_limit=limit)
     assert code == 5 and "Cannot write" in stderr and str(baked / fails) in stderr, stderr  # or its .blend1
     assert digests(baked) == before and not leftovers(baked)
+
+
+def test_two_bakes_into_one_output_do_not_mix(baked):
+    """While a bake (here this process, holding the claim as a bake does) writes out.blend, a second bake into it
+    exits 5 naming the file and the holder's process id, and changes nothing. Two bakes started together (seeds 1
+    and 2) each finish or are refused so, at least one finishes, and the outputs are whole: the .blend, the report
+    and the lightmap of one bake, Blender's backup of the earlier .blend, no claim and no temporary left."""
+    from radiosity_baker.core.staged_files import claimed
+    command = (baked / "in.blend", "-o", baked / "out.blend", "--report", baked / "report.json", *BAKE)
+    before = digests(baked)
+    with claimed(str(baked / "out.blend")):
+        code, stderr = run_cli(*command)
+    assert code == 5 and f"process {os.getpid()}" in stderr and str(baked / "out.blend") in stderr, stderr
+    assert digests(baked) == before
+    bakes = [subprocess.Popen([sys.executable, "-m", "radiosity_addon", "bake", *map(str, command), "--seed", seed],
+                              cwd=ROOT, stderr=subprocess.PIPE, text=True) for seed in ("1", "2")]
+    results = [(bake.wait(timeout=600), bake.stderr.read()) for bake in bakes]
+    assert all(code == 0 or (code == 5 and "Another bake" in stderr) for code, stderr in results), results
+    assert any(code == 0 for code, _ in results)
+    report = json.loads((baked / "report.json").read_text())
+    assert report["output"] == str(baked / "out.blend")
+    bpy.ops.wm.open_mainfile(filepath=str(baked / "out.blend"))
+    assert corner_colors(bpy.data.objects["Floor"].data, "Radiosity").max() > 0
+    assert {path.name for path in baked.iterdir()} == {*before, "out.blend1"}  # Blender's backup of the old file
 
 
 def test_the_input_is_replaced_only_with_overwrite(baked):
@@ -254,6 +279,26 @@ def test_make_local_bakes_a_linked_object_into_the_saved_file(tmp_path, extensio
     assert hashlib.sha256((tmp_path / "library.blend").read_bytes()).hexdigest() == library
 
 
+def test_a_scene_in_a_read_only_folder_bakes_elsewhere(tmp_path, extension):
+    """A .blend in a folder nobody may write to (mode 555; root's permission overrides dropped) bakes into another
+    folder, with its lightmap beside the output (the default //), and its own folder keeps its bytes; an output
+    into that folder exits 5 naming it, before any work."""
+    (tmp_path / "shared").mkdir()
+    source = save_scene(tmp_path / "shared" / "in.blend")
+    before = digests(source.parent)
+    (tmp_path / "mine").mkdir()
+    source.parent.chmod(0o555)
+    try:
+        code, stderr = run_cli(source, "-o", tmp_path / "mine" / "out.blend", *BAKE, honour_permissions=True)
+        assert code == 0, stderr
+        assert (tmp_path / "mine" / "Radiosity_Lightmap.exr").is_file() and digests(source.parent) == before
+        code, stderr = run_cli(source, "-o", source.parent / "out.blend", *BAKE, honour_permissions=True)
+        assert code == 5 and str(source.parent / "out.blend") in stderr and "read-only" in stderr, stderr
+        assert digests(source.parent) == before
+    finally:
+        source.parent.chmod(0o755)
+
+
 def test_a_lightmap_folder_that_does_not_exist_yet_is_created(tmp_path, extension):
     """--lightmap-dir naming folders not made yet: they are made (as Blender makes a render output's), and the
     page lands there; a folder under a file cannot be made, and the bake exits 5 naming it, writing nothing."""
@@ -406,6 +451,48 @@ def test_ten_thousand_small_objects_bake(empty_scene, extension, tmp_path):
     texels = page[(centres[:, 1] * height).astype(int), (centres[:, 0] * width).astype(int)]
     np.testing.assert_allclose(texels, 3.0 / np.pi, rtol=0.01)
     assert len(np.unique((centres * [width, height]).astype(int), axis=0)) == len(tiles)
+
+
+BLENDER_5_PYTHON = ROOT / ".venv" / "bin" / "python"  # scripts/test.sh's, with bpy 5.2
+
+
+@pytest.mark.skipif(bpy.app.version[:2] != (4, 2), reason="saves on Blender 4.2 (scripts/test_blender42.sh) a file "
+                                                          "for Blender 5.2 to bake")
+@pytest.mark.skipif(not BLENDER_5_PYTHON.exists(), reason="needs scripts/test.sh's .venv with Blender 5.2")
+def test_a_file_saved_by_blender_4_2_bakes_on_5_2(empty_scene, extension, tmp_path):
+    """Saved by 4.2: a 4 x 4 m floor (8 x 8 quads) under a 1 x 1 m roof 1 m up marked Shadow Only, a sun straight
+    down (3 W m^-2), black world, and the scene's bake settings (Draft, both targets, a 64-texel lightmap) with
+    the add-on's properties. Blender 5.2's command line bakes it with no setting given: it keeps the settings
+    (the report lists the floor alone, on a 64 x 64 lightmap, at Draft), the floor's outer corners read E / pi =
+    3 / pi within 2%, and its centre, in the roof's shadow, under 5% of that."""
+    floor = grid_plane("Floor", 4.0, 8)
+    grid_plane("Roof", 1.0, 1, location=(0.0, 0.0, 1.0)).radiosity.mode = "SHADOW_ONLY"
+    add_light("SUN", (0.0, 0.0, 5.0), 3.0, angle=0.0)
+    settings = empty_scene.radiosity
+    settings.quality, settings.target, settings.lightmap_resolution = "DRAFT", "BOTH", 64
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "saved by 4.2.blend"))
+    code, stderr = run_cli(tmp_path / "saved by 4.2.blend", "-o", tmp_path / "out.blend", "--report",
+                           tmp_path / "report.json", python=BLENDER_5_PYTHON)
+    assert code == 0, stderr
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert [entry["name"] for entry in report["objects"]] == ["Floor"]
+    assert report["objects"][0]["resolution"] == [64, 64], report
+    assert report["objects"][0]["color_attribute"]
+    draft = extension.radiosity_addon.presets.PRESETS["DRAFT"]
+    assert report["settings"]["light_samples_per_edge"] == draft.light_samples, report["settings"]
+    assert report["settings"]["residual_threshold"] == draft.residual
+    read = ("import bpy, json, numpy as np, sys; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "
+            "mesh = bpy.data.objects['Floor'].data; rgba = np.empty(len(mesh.loops) * 4, dtype=np.float32); "
+            "mesh.color_attributes['Radiosity'].data.foreach_get('color', rgba); "
+            "print(json.dumps([rgba.reshape(-1, 4)[:, :3].tolist(), "
+            "[list(mesh.vertices[loop.vertex_index].co[:2]) for loop in mesh.loops]]))")
+    result = subprocess.run([str(BLENDER_5_PYTHON), "-c", read, str(tmp_path / "out.blend")], capture_output=True,
+                            text=True, timeout=120)  # a file saved by 5.2 does not open on 4.2
+    rgb, position = map(np.array, json.loads(result.stdout.splitlines()[-1]))
+    colours = rgb.mean(axis=1) / (3.0 / np.pi)
+    outer, centre = np.abs(position).min(axis=1) > 1.99, np.linalg.norm(position, axis=1) < 1e-6
+    np.testing.assert_allclose(colours[outer], 1.0, rtol=0.02)
+    assert centre.sum() == 4 and colours[centre].max() < 0.05
 
 
 def scatter_cubes(host, side: float, count: int, cube_size: float):

@@ -1,5 +1,7 @@
 """The one settings table (radiosity_addon/settings.py) is what the panel's properties, the command line and
 UserSettings all show: the same names, defaults, bounds and choices, whatever the table holds."""
+from dataclasses import replace
+
 import bpy
 import pytest
 
@@ -34,18 +36,29 @@ def test_the_panel_properties_are_the_table(empty_scene):
 
 
 def test_the_command_line_options_are_the_table(extension):
+    """One option per setting of the table (and --no-X to switch a switch back off); the options given replace
+    the input file's saved settings, which replace the table's defaults."""
     from radiosity_baker.radiosity_addon.cli import build_parser, user_settings
     from radiosity_baker.radiosity_addon.settings import SETTINGS, UserSettings
     parser = build_parser("test")
     assert user_settings(parser.parse_args(["in.blend", "-o", "out.blend"])) == UserSettings()
-    flags = {action.dest: action for action in parser._actions}
+    flags = {}
+    for action in parser._actions:
+        flags.setdefault(action.dest, []).extend(action.option_strings)
     for setting in SETTINGS:
-        assert flags[setting.name].option_strings == [setting.flag], setting.name
+        switch_back = [f"--no-{setting.flag[2:]}"] if setting.kind is bool else []
+        assert flags[setting.name] == [setting.flag, *switch_back], setting.name
     given = user_settings(parser.parse_args(["in.blend", "-o", "out.blend", "--target", "both", "--float",
                                              "--png-exposure", "-1.5", "--resolution", "512", "--indirect",
                                              "gather", "--quality", "custom"]))
     assert given == UserSettings(target="BOTH", lightmap_half=False, lightmap_png=True, lightmap_png_exposure=-1.5,
                                  lightmap_resolution=512, lightmap_indirect="gather", quality="CUSTOM")
+    saved = UserSettings(quality="DRAFT", target="BOTH", lightmap_resolution=64, light_groups=True,
+                         own_mesh_copies=False, relight_cache="/cache/level.rlcache")
+    assert user_settings(parser.parse_args(["in.blend", "-o", "out.blend"]), saved) == saved
+    given = user_settings(parser.parse_args(["in.blend", "-o", "out.blend", "--target", "lightmap",
+                                             "--no-light-groups", "--no-keep-shared-meshes"]), saved)
+    assert given == replace(saved, target="LIGHTMAP", light_groups=False, own_mesh_copies=True)
 
 
 def test_a_value_out_of_its_bounds_is_refused_by_name(extension):
