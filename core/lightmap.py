@@ -18,6 +18,7 @@ from .errors import BakeCancelled, SettingsError
 from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts, gather_pays
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
+from .raycast import RayCaster
 from .geometry import inset, lengths, triangle_areas
 from .scene import PointLight, SpotLight, SunLight
 from .seams import seam_points, stitch_seams
@@ -30,6 +31,7 @@ INDIRECT_METHODS = ("auto", "gather", "interpolate")
 # Texels lit per step: bounds the memory of the shadow and gather rays of a big page (9 points x 16 rays per
 # texel at High), and lets progress and Esc through between steps.
 TEXELS_PER_CHUNK = 8192
+PLAN_TEXELS_PER_CHUNK = 65536  # texels whose footprints are probed at once: their rays take about 5 kB a texel
 # Shadow edges: a texel whose sub-points' direct light from one source spreads over more than this share of the
 # brightest (or differs by that much from a neighbour's) is lit again by that source from this many points per
 # edge in each sub-point's cell: wide sources (area lights, emissive surfaces, the world) cast wide penumbrae, and
@@ -221,35 +223,74 @@ def plan_texels(solution, scene_triangle: np.ndarray, corner_uv: np.ndarray, wid
 def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, corner_uv: np.ndarray, width: int,
                   height: int, settings: LightmapSettings = LightmapSettings()) -> TexelPlan:
     """``plan_texels`` from the scene alone, its ray-casting scene and ray offset (core.bake.ray_offset_m), so
-    that it can run before or during the solve: the indirect method is left as ``settings`` have it."""
+    that it can run before or during the solve: the indirect method is left as ``settings`` have it. The probes
+    of the texels' footprints run PLAN_TEXELS_PER_CHUNK texels at a time, so that their rays' memory does not
+    grow with the page."""
     texels = rasterize(np.asarray(corner_uv, dtype=np.float64), width, height)
     tri = np.asarray(scene_triangle, dtype=np.int64)[texels.triangle]
     points, normals = sample_points(scene.triangles[np.asarray(scene_triangle, dtype=np.int64)], texels,
                                     4 * offset_m)
     reach = texel_size_m(scene.triangles[tri], corner_uv[texels.triangle], width, height)
-    on_surface = points
-    points, moved, buried = push_out_of_geometry(caster, scene.triangles, points, normals, reach, offset_m)
     steps = footprint_steps(texels, corner_uv)
-    sub_points, sub_bary = _footprint_points(scene.triangles[tri], texels.barycentric, steps,
-                                             settings.subtexel_samples_per_edge, points, moved, 4 * offset_m)
-    m, q = sub_points.shape[:2]
-    dark = _on_another_face(other_face_test(scene.triangles, 4 * offset_m), tri, points, sub_points, texels.pixel,
-                            width, height)
-    flat_points, flat_normals = sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0)
-    dark |= covered_within(caster, flat_points, flat_normals, offset_m).reshape(m, q)
-    dark |= buried_in_geometry(caster, scene.triangles, flat_points, flat_normals, np.repeat(reach, q),
-                               offset_m).reshape(m, q)
-    in_triangle = footprint_inside(texels.barycentric, steps, settings.subtexel_samples_per_edge)
-    weight = np.where(in_triangle.any(axis=1)[:, None], in_triangle, True)  # where Cycles' samples land
+    probe = _FootprintProbe(scene.triangles, caster, offset_m, settings.subtexel_samples_per_edge)
+    parts = [probe(tri[rows], texels.barycentric[rows], steps[rows], points[rows], normals[rows], reach[rows])
+             for rows in _ranges(len(tri), PLAN_TEXELS_PER_CHUNK)]
+    points, moved, buried, sub_points, sub_bary, dark, weight, moved_inside = (
+        np.concatenate(part) for part in zip(*parts)) if parts else probe.empty(len(tri))
+    dark |= _on_another_face(other_face_test(scene.triangles, 4 * offset_m), tri, points, sub_points, texels.pixel,
+                             width, height)
     contact = (dark * weight).sum(axis=1) / weight.sum(axis=1)
-    contact[moved] = _share_inside(caster, scene.triangles, tri, texels.barycentric, steps, on_surface, normals,
-                                   moved, weight, settings.subtexel_samples_per_edge, offset_m)
+    contact[moved] = moved_inside[moved]
     contact[buried] = 1.0  # no light gets there: Cycles bakes the inside of the geometry
     page = np.asarray(scene_triangle, dtype=np.int64)
     seams = seam_points(scene.triangles[page], scene.corner_normals[page],
                         np.asarray(corner_uv, dtype=np.float64) * [width, height])
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
                      sub_bary, steps, moved, dark, contact, settings, TEXELS_PER_CHUNK, seams)
+
+
+def _ranges(count: int, size: int) -> list[slice]:
+    return [slice(start, min(start + size, count)) for start in range(0, count, size)]
+
+
+@dataclass(frozen=True)
+class _FootprintProbe:
+    """The ray probes of a run of texels' footprints (each texel's alone: a page's is the concatenation of its
+    runs'). Called with (m,) scene triangles, (m, 3) barycentrics, (m, 2, 3) footprint steps, (m, 3) points and
+    normals and (m,) reaches, it returns the points pushed out of closed geometry, which moved and which are
+    buried (core.surface_probes.push_out_of_geometry), the (m, q, 3) footprint points and barycentrics, (m, q)
+    which are dark (under a face nearer than the ray offset, or buried in closed geometry), (m, q) the weights
+    of the points where Cycles' samples land, and (m,) for a moved texel the share of its footprint inside
+    closed geometry (``_share_inside``; 0 for the others)."""
+
+    scene_triangles_m: np.ndarray
+    caster: RayCaster
+    offset_m: float
+    samples_per_edge: int
+
+    def __call__(self, tri, barycentric, steps, points, normals, reach):
+        triangles, offset = self.scene_triangles_m, self.offset_m
+        on_surface = points
+        points, moved, buried = push_out_of_geometry(self.caster, triangles, points, normals, reach, offset)
+        sub_points, sub_bary = _footprint_points(triangles[tri], barycentric, steps, self.samples_per_edge, points,
+                                                 moved, 4 * offset)
+        m, q = sub_points.shape[:2]
+        flat_points, flat_normals = sub_points.reshape(-1, 3), np.repeat(normals, q, axis=0)
+        dark = covered_within(self.caster, flat_points, flat_normals, offset).reshape(m, q)
+        dark |= buried_in_geometry(self.caster, triangles, flat_points, flat_normals, np.repeat(reach, q),
+                                   offset).reshape(m, q)
+        in_triangle = footprint_inside(barycentric, steps, self.samples_per_edge)
+        weight = np.where(in_triangle.any(axis=1)[:, None], in_triangle, True)  # where Cycles' samples land
+        moved_inside = np.zeros(m)
+        moved_inside[moved] = _share_inside(self.caster, triangles, tri, barycentric, steps, on_surface, normals,
+                                            moved, weight, self.samples_per_edge, offset)
+        return points, moved, buried, sub_points, sub_bary, dark, weight, moved_inside
+
+    def empty(self, m: int):
+        """What a page of no texel probes to."""
+        q = self.samples_per_edge ** 2
+        return (np.zeros((m, 3)), np.zeros(m, dtype=bool), np.zeros(m, dtype=bool), np.zeros((m, q, 3)),
+                np.zeros((m, q, 3)), np.zeros((m, q), dtype=bool), np.ones((m, q)), np.zeros(m))
 
 
 def _share_inside(caster, scene_triangles_m, tri, barycentric, steps, points, normals, moved, weight,
