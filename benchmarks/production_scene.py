@@ -66,13 +66,13 @@ def command_line_bake(scene_file: Path, quality: str, target: str, folder: Path)
         raise RuntimeError(f"{' '.join(command)} failed:\n{child.stderr.read()}")
     report = json.loads(report_file.read_text())
     report["wall_seconds"] = seconds
-    report["peak_rss_gb"] = usage.ru_maxrss * 1024 / 1e9  # Linux reports kilobytes
+    report["peak_rss_gib"] = usage.ru_maxrss * 1024 / 2 ** 30  # Linux reports kilobytes; GiB, as the estimate
     return report
 
 
 def scaling_table(counts: list[int], qualities: list[str], targets: list[str], folder: Path) -> None:
-    print(f"{'triangles':>10s} {'quality':8s} {'target':14s} {'wall s':>8s} {'peak GB':>8s} {'pieces':>8s} "
-          f"{'elements':>9s} {'nodes':>7s} {'links':>9s} {'texels':>9s}")
+    print(f"{'triangles':>10s} {'quality':8s} {'target':14s} {'wall s':>8s} {'peak GiB':>8s} {'est. GiB':>8s} "
+          f"{'pieces':>8s} {'elements':>9s} {'nodes':>7s} {'links':>9s} {'texels':>9s}")
     for count in counts:
         scene_file = courtyard_file(count, folder)
         for quality in qualities:
@@ -81,7 +81,8 @@ def scaling_table(counts: list[int], qualities: list[str], targets: list[str], f
                 solve = report["solve"]
                 texels = report["lightmap"]["texels"] if "lightmap" in report else 0
                 print(f"{count:10d} {quality:8s} {target:14s} {report['wall_seconds']:8.1f} "
-                      f"{report['peak_rss_gb']:8.2f} {solve['pieces']:8d} {solve['element_sides']:9d} "
+                      f"{report['peak_rss_gib']:8.2f} {report['memory']['estimated_gb']:8.2f} "
+                      f"{solve['pieces']:8d} {solve['element_sides']:9d} "
                       f"{solve['nodes']:7d} {solve['links']:9d} {texels:9d}", flush=True)
 
 

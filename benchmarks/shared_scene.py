@@ -136,8 +136,8 @@ def compare_quality(quality: str, scene_file: Path, folder: Path, reference_samp
     report = measured_bake(scene_file, quality, folder, reuse)
     timings = ", ".join(f"{stage} {seconds:.0f} s" for stage, seconds in report["timings"].items())
     print(f"\n{scene_file.name} at {quality}: {report['wall_seconds']:.0f} s wall ({timings}; lightmap "
-          f"{sum(report['lightmap']['timings'].values()):.0f} s), peak {report['peak_rss_gb']:.2f} GB resident "
-          f"(estimate {report['memory']['estimated_gb']:.2f} GB, limit {report['memory']['limit_gb']:.1f} GB), "
+          f"{sum(report['lightmap']['timings'].values()):.0f} s), peak {report['peak_rss_gib']:.2f} GiB resident "
+          f"(estimate {report['memory']['estimated_gb']:.2f} GiB, limit {report['memory']['limit_gb']:.1f} GiB), "
           f"{report['rays'] / 1e6:.0f} M rays, {report['solve'].get('links', 0) / 1e6:.1f} M links, "
           f"{report['elements']} elements, {report['lightmap']['texels']} texels")
     from radiosity_baker.radiosity_addon.export import export_scene
