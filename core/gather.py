@@ -22,6 +22,7 @@ import numpy as np
 
 from .geometry import lengths, tangent_frames, triangle_areas, triangle_unit_normals
 from .parallel import ordered_map
+from .ragged import even_ranges
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
 
@@ -103,7 +104,7 @@ def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, n
     rays = samples_per_edge ** 2
     step = max(1, min(RAYS_PER_CHUNK // rays, -(-len(points) // min_chunks)))
     faces = normals if face_normals is None else face_normals
-    chunks = [slice(start, min(start + step, len(points))) for start in range(0, len(points), step)]
+    chunks = even_ranges(len(points), step)
     close_m = np.broadcast_to(close_m, len(points))
     gathered = lambda chunk: _gather_chunk(solutions, caster, points[chunk], normals[chunk], faces[chunk],
                                            samples_per_edge, offset_m, seed + chunk.start, near_m,

@@ -18,6 +18,7 @@ from .errors import BakeCancelled, SettingsError
 from .gather import NEAR_ELEMENTS, NEAR_SAMPLES_PER_EDGE, final_gather_parts, gather_pays
 from .parallel import ordered_map, steps_in_flight
 from .progress import Progress, Timer, never_cancelled, no_progress
+from .ragged import even_ranges
 from .raycast import RayCaster
 from .geometry import inset, lengths, triangle_areas
 from .scene import PointLight, SpotLight, SunLight
@@ -234,7 +235,7 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     steps = footprint_steps(texels, corner_uv)
     probe = _FootprintProbe(scene.triangles, caster, offset_m, settings.subtexel_samples_per_edge)
     parts = [probe(tri[rows], texels.barycentric[rows], steps[rows], points[rows], normals[rows], reach[rows])
-             for rows in _ranges(len(tri), PLAN_TEXELS_PER_CHUNK)]
+             for rows in even_ranges(len(tri), PLAN_TEXELS_PER_CHUNK)]
     points, moved, buried, sub_points, sub_bary, dark, weight, moved_inside = (
         np.concatenate(part) for part in zip(*parts)) if parts else probe.empty(len(tri))
     dark |= _on_another_face(other_face_test(scene.triangles, 4 * offset_m), tri, points, sub_points, texels.pixel,
@@ -247,10 +248,6 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
                         np.asarray(corner_uv, dtype=np.float64) * [width, height])
     return TexelPlan(width, height, texels.pixel, tri, texels.barycentric, points, normals, reach, sub_points,
                      sub_bary, steps, moved, dark, contact, settings, TEXELS_PER_CHUNK, seams)
-
-
-def _ranges(count: int, size: int) -> list[slice]:
-    return [slice(start, min(start + size, count)) for start in range(0, count, size)]
 
 
 @dataclass(frozen=True)

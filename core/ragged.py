@@ -11,6 +11,11 @@ def concatenated_ranges(sizes: np.ndarray) -> np.ndarray:
     return np.arange(ends[-1] if len(ends) else 0) - np.repeat(ends - sizes, sizes)
 
 
+def even_ranges(count: int, size: int) -> list[slice]:
+    """Slices of ``size`` consecutive items (the last one shorter) covering ``count`` items."""
+    return [slice(start, min(start + size, count)) for start in range(0, count, size)]
+
+
 def budget_ranges(counts: np.ndarray, budget: int):
     """(start, stop) ranges of consecutive items whose ``counts`` sum to at most ``budget`` (an item over the
     budget gets a range of its own): for processing ragged work in bounded memory."""
