@@ -103,7 +103,7 @@ def export_scene(context) -> Export:
             lights.append(_light(evaluated, np.array(instance.matrix_world), groups.of(original)))
             continue
         instanced = instance.is_instance and owner != original  # not a curve's, text's or metaball's own mesh
-        mode = _mode(owner) if instanced else _mode(original)
+        mode = _object_setting(owner if instanced else original, "mode", "BAKE")
         if evaluated.type not in GEOMETRY_TYPES or mode == "EXCLUDE":
             continue
         if evaluated.type != "MESH":  # its surface comes as an instance of its own mesh, if it has one
@@ -135,7 +135,7 @@ def export_scene(context) -> Export:
             corner_vertices=vertices, writable=writable, same_topology=same,
             loop_count=len(original.data.loops) if original.type == "MESH" else 0,
             original_corners=None if same or not writable else original_corners(original),
-            lightmap_scale=_lightmap_scale(original)))
+            lightmap_scale=_object_setting(original, "lightmap_scale", 1.0)))
         names.append(name)
         first_triangle += count
         part.update(casts_only=np.full(count, mode == "SHADOW_ONLY"), object_index=np.full(count, len(names) - 1),
@@ -238,13 +238,9 @@ def _unbaked_warning(name: str, kind: str, count: int) -> str:
             "(Object > Convert > Mesh to bake it).")
 
 
-def _lightmap_scale(obj) -> float:
-    return getattr(getattr(obj, "radiosity", None), "lightmap_scale", 1.0)
-
-
-def _mode(obj) -> str:
-    settings = getattr(obj, "radiosity", None)
-    return settings.mode if settings is not None else "BAKE"
+def _object_setting(obj, name: str, default):
+    """The object's Radiosity property ``name`` (RadiosityObjectSettings), or ``default`` where it has none."""
+    return getattr(getattr(obj, "radiosity", None), name, default)
 
 
 def _same_topology(evaluated, original) -> bool:
