@@ -235,9 +235,9 @@ def sample_texels(scene, caster, offset_m: float, scene_triangle: np.ndarray, co
     steps = footprint_steps(texels, corner_uv)
     probe = _FootprintProbe(scene.triangles, caster, offset_m, settings.subtexel_samples_per_edge)
     parts = [probe(tri[rows], texels.barycentric[rows], steps[rows], points[rows], normals[rows], reach[rows])
-             for rows in even_ranges(len(tri), PLAN_TEXELS_PER_CHUNK)]
+             for rows in even_ranges(len(tri), PLAN_TEXELS_PER_CHUNK) or [slice(0, 0)]]  # a page of no texel too
     points, moved, buried, sub_points, sub_bary, dark, weight, moved_inside = (
-        np.concatenate(part) for part in zip(*parts)) if parts else probe.empty(len(tri))
+        np.concatenate(part) for part in zip(*parts))
     dark |= _on_another_face(other_face_test(scene.triangles, 4 * offset_m), tri, points, sub_points, texels.pixel,
                              width, height)
     contact = (dark * weight).sum(axis=1) / weight.sum(axis=1)
@@ -282,12 +282,6 @@ class _FootprintProbe:
         moved_inside[moved] = _share_inside(self.caster, triangles, tri, barycentric, steps, on_surface, normals,
                                             moved, weight, self.samples_per_edge, offset)
         return points, moved, buried, sub_points, sub_bary, dark, weight, moved_inside
-
-    def empty(self, m: int):
-        """What a page of no texel probes to."""
-        q = self.samples_per_edge ** 2
-        return (np.zeros((m, 3)), np.zeros(m, dtype=bool), np.zeros(m, dtype=bool), np.zeros((m, q, 3)),
-                np.zeros((m, q, 3)), np.zeros((m, q), dtype=bool), np.ones((m, q)), np.zeros(m))
 
 
 def _share_inside(caster, scene_triangles_m, tri, barycentric, steps, points, normals, moved, weight,
