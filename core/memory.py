@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .adaptive_elements import ADAPTIVE_GROWTH
+from .adaptive_elements import ADAPTIVE_GROWTH, COVER_GROWTH
 from .clusters import normal_bins, stands_alone
 from .errors import SceneError
 from .geometry import longest_edges, triangle_areas, triangle_unit_normals
@@ -171,8 +171,8 @@ def estimate_bake(triangles_m: np.ndarray, element_size_m: float, covered_texels
     core), with lightmap pages lit one at a time (``covered_texels``: the largest page's texels that charts
     cover) whose images (``image_texels`` in all) are kept until they are written, and whose texels
     (``planned_texels``: every page's covered texels) are planned alongside the solve; each adaptive pass may
-    make up to ADAPTIVE_GROWTH times the pieces and elements."""
-    growth = ADAPTIVE_GROWTH ** adaptive_passes
+    make up to ADAPTIVE_GROWTH times the pieces and elements, after the cover passes' COVER_GROWTH."""
+    growth = COVER_GROWTH * ADAPTIVE_GROWTH ** adaptive_passes
     pieces = int(growth * piece_counts(triangles_m, element_size_m).sum())
     sides = int(2 * growth * element_count(triangles_m, element_size_m))
     persistent = (FIXED_BYTES + BYTES_PER_TRIANGLE * len(triangles_m) + BYTES_PER_PIECE * pieces +

@@ -64,12 +64,13 @@ def test_sloped_wall_tops_under_slabs_and_overlapping_tiles_read_as_cycles(empty
     """Six walls under slabs 2, 5 and 10 cm above their sloped tops (single-sided and closed), two roof tiles
     overlapping by half 3 cm apart, sun from above and a blue sky, at 6 texels per metre (17 cm texels), Medium.
     No texel of a wall top or of the lower tile is over twice Cycles (2 x 256 spp) plus 10% of the page's mean
-    level (the issue's bound for a leak), and each wall top's mean is within 0.06 (6% of the sunlit level) of
-    Cycles'. Measured: wall tops 0.043-0.120 against Cycles' 0.015-0.122 on bpy 5.2 and 0.010-0.118 on 4.2 (whose
-    Cycles reads 0.004 darker here), the covered tile 0.05-0.065 against 0.087-0.105; a wall top reading the sun
-    would hold about 0.8. The largest excess, +0.046 (5.2) and +0.051 (4.2) under the 2 cm single-sided slab, is
-    gathered light: the slab's underside elements average its covered part with the overhang that sees the sunlit
-    ground (without the near re-gather it reads 0.110)."""
+    level (the issue's bound for a leak), and each wall top's mean is within 0.05 (5% of the sunlit level) of
+    Cycles'. Measured: wall tops 0.015-0.132 against Cycles' 0.015-0.122 on bpy 5.2 and 0.010-0.118 on 4.2 (whose
+    Cycles reads 0.004 darker here); a wall top reading the sun would hold about 0.8. Under the 2 cm single-sided
+    slab it read 0.061 before the cover passes (core.adaptive_elements) split the slab's underside elements that
+    are half over the wall top and half over the sunlit ground. The largest excess left, +0.029 (5.2) and +0.034
+    (4.2) under the 5 cm single-sided slab, is on wall-top elements covered all over, which each receive at one
+    point a few centimetres from the opening."""
     grey = principled_material("grey", (0.6, 0.6, 0.6), True)
     grid_plane("Ground", 40.0, 8, location=(6.0, 0, 0), colour=(0.6, 0.6, 0.6))
     walls = [wall_under_slab(-10.0 + 5 * k, gap, closed, grey)
@@ -94,6 +95,6 @@ def test_sloped_wall_tops_under_slabs_and_overlapping_tiles_read_as_cycles(empty
         top = top_texels(obj, width, height) & ~page.moved
         assert top.sum() >= 40
         assert np.all(ours[top] <= 2 * cycles[top] + 0.1 * level), obj.name
-        assert ours[top].mean() == pytest.approx(cycles[top].mean(), abs=0.06), obj.name
+        assert ours[top].mean() == pytest.approx(cycles[top].mean(), abs=0.05), obj.name
     tile = uv_coverage([tiles[0]], "Lightmap", width, height) & ~page.moved
     assert np.all(ours[tile] <= 2 * cycles[tile] + 0.1 * level)
