@@ -92,15 +92,16 @@ def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.nd
 def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, normals: np.ndarray,
                        samples_per_edge: int, offset_m: float, seed: int, face_normals: np.ndarray | None = None,
                        near_m: float = 0.0, near_samples_per_edge: int = 0, workers: int = 1,
-                       exact_lights: int = 0, min_chunks: int = 1,
-                       close_m: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       exact_lights: int = 0, min_chunks: int = 1, close_m: np.ndarray | float = 0.0,
+                       world: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``final_gather`` of several solutions of the same surfaces, lit by parts of the light (light groups,
     core.bake.bake_light_groups), along the same rays: (G, m, 3) each one's light, the (m, 3) variance of the
     mean of their sum (the rays' sample variance of the summed light over their count), and the (m,) share of
     each point's rays that land within its ``close_m`` (a scalar or (m,); the denoiser's guide, core.denoise).
     The points are split into at least ``min_chunks`` chunks where there are that many, so that one call's chunks
     can fill ``workers`` (a fixed number, not ``workers``: the chunks seed the rays, and the result must not depend
-    on the machine)."""
+    on the machine). ``world`` False: rays that escape bring nothing (the indirect light alone, for points whose
+    direct light has the world's)."""
     rays = samples_per_edge ** 2
     step = max(1, min(RAYS_PER_CHUNK // rays, -(-len(points) // min_chunks)))
     faces = normals if face_normals is None else face_normals
@@ -108,7 +109,7 @@ def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, n
     close_m = np.broadcast_to(close_m, len(points))
     gathered = lambda chunk: _gather_chunk(solutions, caster, points[chunk], normals[chunk], faces[chunk],
                                            samples_per_edge, offset_m, seed + chunk.start, near_m,
-                                           near_samples_per_edge, exact_lights, close_m[chunk])
+                                           near_samples_per_edge, exact_lights, close_m[chunk], world)
     light, variance = np.zeros((len(solutions), len(points), 3)), np.zeros((len(points), 3))
     close_share = np.zeros(len(points))
     for chunk, parts in zip(chunks, ordered_map(gathered, chunks, workers)):
@@ -117,7 +118,7 @@ def final_gather_parts(solutions: list, caster: RayCaster, points: np.ndarray, n
 
 
 def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_edge, offset_m, seed, near_m,
-                  near_samples_per_edge, exact_lights, close_m):
+                  near_samples_per_edge, exact_lights, close_m, world):
     solution = solutions[0]  # the surfaces are the same in each
     count, rays = len(points), samples_per_edge ** 2
     local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
@@ -141,6 +142,7 @@ def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_
         if len(again):
             part[again] = lit.reflected_radiosity(hit[again], bary[again], side[near], seed + len(hit),
                                                   near_samples_per_edge, exact_lights)
-        part[(hit < 0) & above] = np.pi * np.asarray(lit.scene.world.radiance, dtype=np.float64)
+        if world:
+            part[(hit < 0) & above] = np.pi * np.asarray(lit.scene.world.radiance, dtype=np.float64)
     per_ray = radiosity.reshape(len(solutions), count, rays, 3) / np.pi
     return per_ray.mean(axis=2), per_ray.sum(axis=0).var(axis=1) / rays, close.reshape(count, rays).mean(axis=1)

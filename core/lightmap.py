@@ -1,6 +1,7 @@
 """Lightmap textures from a solved scene: per-texel direct light by shadow rays plus indirect light from the
-radiosity solution (final gather, or interpolation between elements for drafts), then dilation into the padding
-and the stitching of UV seams.
+radiosity solution (final gather, or interpolation between elements where the elements resolve the light: texels
+facing a surface nearer than an element gather even then), then dilation into the padding and the stitching of UV
+seams.
 
 Values are irradiance / pi, scene-linear: what Cycles' Diffuse bake (Direct + Indirect, no Color) writes into an
 image on the same UV map (docs/units.md). Images are (height, width, 3) float32 with row 0 at the bottom, as
@@ -48,6 +49,7 @@ SLIVER_GRID = 4  # texels reaching fewer than s of their s x s gather points tak
 # than their noise (a soffit's corner that runs into the next arch beside its open span): docs/benchmarks.md,
 # History "Slivers gather over the sliver; the denoiser guided by close hits".
 CLOSE_TEXELS = 4.0
+GATHER_UNDER_ELEMENTS = 1.0  # interpolating, texels under a surface nearer than this many element sizes gather
 SAME_SURFACE_COSINE = 0.999  # neighbouring texels whose faces' normals agree this well lie on one surface
 
 
@@ -341,6 +343,15 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
         indirect = np.stack([_footprint_mean(scene, np.where(buried[..., None], 0.0, lit.indirect_light(
             points, normals, tri, barycentric)[:, None, :]), tri, sub_bary, reached) for lit in lightings])
         variance, close_share = np.zeros_like(indirect[0]), np.zeros(c)
+        near = _under_near_surface(solution, points, normals)
+        if len(near):
+            seed = settings.seed + first_texel
+            indirect[:, near], variance[near], close_share[near] = final_gather_parts(
+                lightings, solution.caster, _gather_points(solution, plan, chunk, seed)[near],
+                scene.shading_normals(tri[near], barycentric[near]), settings.gather_samples_per_edge,
+                solution.offset_m, seed, face_normals=normals[near], near_m=NEAR_ELEMENTS * solution.element_size_m,
+                near_samples_per_edge=NEAR_SAMPLES_PER_EDGE, close_m=CLOSE_TEXELS * plan.texel_m[chunk][near],
+                world=False)
     timer.lap("indirect")
     return TexelLight(direct, indirect, variance, close_share)
 
@@ -351,7 +362,7 @@ def finish_lightmap(solution, plan: TexelPlan, light: TexelLight, seconds: dict 
     into the padding. With ``groups`` (the light groups ``light`` holds, in order), each group's page too, the
     page being their sum (the denoiser's weights are the sum's, so that the groups sum to it)."""
     indirect = light.indirect
-    if plan.settings.indirect == "gather" and plan.settings.denoise:
+    if plan.settings.denoise and light.indirect_variance.any():  # some texels were gathered
         indirect = denoise_gathered(plan.pixel, plan.width, plan.height, plan.points, plan.normals, plan.texel_m,
                                     indirect.sum(axis=0), light.indirect_variance, parts=indirect,
                                     guide=(light.close_share, plan.settings.gather_samples_per_edge ** 2))
@@ -376,6 +387,15 @@ def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> 
     image[plan.pixel] = np.nan_to_num(light)
     image, _ = dilate(image.reshape(plan.height, plan.width, 3), covered, plan.settings.dilation_texels)
     return stitch_seams(image, covered, *plan.seams).astype(np.float32)
+
+
+def _under_near_surface(solution, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Indices of the (m, 3) texel points with unit face ``normals`` that face a surface nearer than
+    GATHER_UNDER_ELEMENTS element sizes along the normal: a wall behind a moulding 1 cm proud, a gap between
+    cushions. The elements there are larger than the gap, so the irradiance interpolated between them is the open
+    surface's beside it; interpolating lightmaps gather these texels instead."""
+    distance = solution.caster.hit_distance(points + solution.offset_m * normals, normals)
+    return np.flatnonzero(distance < GATHER_UNDER_ELEMENTS * solution.element_size_m)
 
 
 def _inside(solution, points, normals, sub_points) -> np.ndarray:

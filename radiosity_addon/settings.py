@@ -127,12 +127,13 @@ SETTINGS = (
             "quality; the presets use Automatic)", flag="--indirect", section="lightmap", enabled_when=_custom, items=(
                 ("auto", "Automatic", "Final gather where the elements are coarse next to the distances between "
                                       "surfaces, else interpolation"),
-                ("interpolate", "Interpolate", "From the radiosity elements' corners: smooth, fast"),
+                ("interpolate", "Interpolate", "From the radiosity elements' corners: smooth, fast (texels "
+                                               "facing a surface nearer than an element still gather)"),
                 ("gather", "Final Gather", "Rays from each texel look up the radiosity solution: finer indirect "
                                            "detail, some noise"))),
     Setting("gather_samples", "Gather Samples", 8, "Final-gather rays per texel: this number squared (Custom "
             "quality)", flag="--gather-samples", low=1, high=64, soft_high=32, section="lightmap",
-            enabled_when=lambda settings: _custom(settings) and settings.lightmap_indirect != "interpolate"),
+            enabled_when=_custom),
     Setting("lightmap_uv_map", "UV Map", "Lightmap", "Name of the UV map the bake makes, or reads with Use "
             "Existing UV Map (existing UV maps are never changed)", flag="--uv-map", section="lightmap"),
     Setting("lightmap_existing_uv", "Use Existing UV Map", False, "Bake onto the lightmap UV map of that name, "
