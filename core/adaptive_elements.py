@@ -6,9 +6,8 @@ pass make chosen elements again at half the size: their pieces are cut where lon
 with pieces of their own size (core.clusters).
 
 1. Cover passes, before the direct light is sampled, one per halving from the element size down to the minimum
-   (2 at the presets): an element side some of whose samples lie under a
-   surface nearer than COVER_NEAR_SHARE of the element's extent while others see nothing nearer than the extent
-   is made finer. Such a side receives its indirect light at one point (core.hierarchical.Receivers), so where the
+   (2 at the presets): an element side some of whose samples lie under a surface nearer than COVER_NEAR_SHARE of
+   the element's extent while others see nothing nearer than the extent is made finer. Such a side receives its indirect light at one point (core.hierarchical.Receivers), so where the
    point lies in the open (a roof slab's underside, half over a wall top 2 cm below and half overhanging the sunlit
    ground) the whole side, its covered part too, reflects the open part's light onto the surface under it.
 2. Adaptive passes, as many as asked, after it: the elements whose direct light varies across their samples (a
@@ -135,6 +134,8 @@ def unevenly_covered(clusters: FaceClusters, receivers: Receivers, exposed_sampl
     uneven[receivers.element[covered & open_]] = True
     chosen = np.flatnonzero(uneven & splittable)
     return chosen[np.argsort(-extent[chosen], kind="stable")]
+
+
 def uneven_elements(clusters: FaceClusters, receivers: Receivers, exposed_samples: np.ndarray,
                     per_sample: np.ndarray, splittable: np.ndarray, threshold: float) -> np.ndarray:
     """Indices of the ``splittable`` (n,) elements with a side whose direct light (``per_sample`` (R, SAMPLES, 3)

@@ -321,7 +321,7 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     group, the gather's rays shared."""
     chunk, settings, timer = plan.chunk(index), plan.settings, timer or Timer()
     points, sub_points, sub_bary = plan.points[chunk], plan.sub_points[chunk], plan.sub_bary[chunk]
-    normals, tri, barycentric, first_texel = plan.normals[chunk], plan.tri[chunk], plan.barycentric[chunk], chunk.start
+    normals, tri, barycentric = plan.normals[chunk], plan.tri[chunk], plan.barycentric[chunk]
     scene = solution.scene
     c, q = sub_points.shape[:2]
     shading = scene.shading_normals(np.repeat(tri, q), sub_bary.reshape(-1, 3)).reshape(c, q, 3)
@@ -332,26 +332,16 @@ def light_chunk(solution, plan: TexelPlan, index: int, timer: Timer | None = Non
     direct = _direct_light(lightings, plan, chunk, shading, reached, world=not gather)
     timer.lap("direct")
     if gather:
-        seed = settings.seed + first_texel
-        indirect, variance, close_share = final_gather_parts(
-            lightings, solution.caster, _gather_points(solution, plan, chunk, seed),
-            scene.shading_normals(tri, barycentric), settings.gather_samples_per_edge, solution.offset_m, seed,
-            face_normals=normals, near_m=NEAR_ELEMENTS * solution.element_size_m,
-            near_samples_per_edge=NEAR_SAMPLES_PER_EDGE, close_m=CLOSE_TEXELS * plan.texel_m[chunk])
+        indirect, variance, close_share = _gathered(solution, lightings, plan, chunk, np.arange(c), world=True)
     else:
         buried = _inside(solution, points, normals, sub_points)
         indirect = np.stack([_footprint_mean(scene, np.where(buried[..., None], 0.0, lit.indirect_light(
             points, normals, tri, barycentric)[:, None, :]), tri, sub_bary, reached) for lit in lightings])
         variance, close_share = np.zeros_like(indirect[0]), np.zeros(c)
         near = _under_near_surface(solution, points, normals)
-        if len(near):
-            seed = settings.seed + first_texel
-            indirect[:, near], variance[near], close_share[near] = final_gather_parts(
-                lightings, solution.caster, _gather_points(solution, plan, chunk, seed)[near],
-                scene.shading_normals(tri[near], barycentric[near]), settings.gather_samples_per_edge,
-                solution.offset_m, seed, face_normals=normals[near], near_m=NEAR_ELEMENTS * solution.element_size_m,
-                near_samples_per_edge=NEAR_SAMPLES_PER_EDGE, close_m=CLOSE_TEXELS * plan.texel_m[chunk][near],
-                world=False)
+        if len(near):  # their direct light has the world's
+            indirect[:, near], variance[near], close_share[near] = _gathered(solution, lightings, plan, chunk, near,
+                                                                             world=False)
     timer.lap("indirect")
     return TexelLight(direct, indirect, variance, close_share)
 
@@ -387,6 +377,21 @@ def _page(solution, plan: TexelPlan, light: np.ndarray, covered: np.ndarray) -> 
     image[plan.pixel] = np.nan_to_num(light)
     image, _ = dilate(image.reshape(plan.height, plan.width, 3), covered, plan.settings.dilation_texels)
     return stitch_seams(image, covered, *plan.seams).astype(np.float32)
+
+
+def _gathered(solution, lightings: list, plan: TexelPlan, chunk: slice, rows: np.ndarray,
+              world: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """core.gather.final_gather_parts at the chunk's texels ``rows``: (g, r, 3) each lighting's indirect light
+    (with the world's if ``world``), (r, 3) its variance and (r,) the share of rays that land within CLOSE_TEXELS.
+    A ray landing within NEAR_ELEMENTS element sizes gathers again there; the rays are seeded from the chunk's
+    first texel."""
+    settings, seed = plan.settings, plan.settings.seed + chunk.start
+    tri, barycentric = plan.tri[chunk][rows], plan.barycentric[chunk][rows]
+    return final_gather_parts(
+        lightings, solution.caster, _gather_points(solution, plan, chunk, seed)[rows],
+        solution.scene.shading_normals(tri, barycentric), settings.gather_samples_per_edge, solution.offset_m, seed,
+        face_normals=plan.normals[chunk][rows], near_m=NEAR_ELEMENTS * solution.element_size_m,
+        near_samples_per_edge=NEAR_SAMPLES_PER_EDGE, close_m=CLOSE_TEXELS * plan.texel_m[chunk][rows], world=world)
 
 
 def _under_near_surface(solution, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
