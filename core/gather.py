@@ -28,10 +28,12 @@ from .sampling import cosine_hemisphere, stratified_square
 
 RAYS_PER_CHUNK = 1 << 20
 FREE_PATH_RAYS = 1 << 14
-# A final gather pays where the surfaces a point sees lie closer than this many elements (on the mean): there,
-# irradiance interpolated between elements blurs what the elements are too coarse to resolve (an arcade's ceiling
-# 3 m above a floor, with 2.5 m elements). Where the threshold comes from: docs/benchmarks.md, "Presets".
-GATHER_BELOW_ELEMENTS = 3.0
+# A final gather pays where half the light a surface receives comes from surfaces closer than this many elements
+# (the median free path): there, irradiance interpolated between elements blurs what the elements are too coarse to
+# resolve (an arcade's ceiling 3 m above a floor, with 2.5 m elements; a furnished room's props). The median, not
+# the mean, which the long rays across a room's open middle hold up. Where the threshold comes from:
+# docs/benchmarks.md, "Presets".
+GATHER_BELOW_ELEMENTS = 2.0
 # A gather ray that lands within this many element sizes of its origin gathers the indirect light there again
 # (``final_gather``'s near_m), by NEAR_SAMPLES_PER_EDGE^2 rays: close by, the element's one value is not the light
 # of the spot the ray meets (measured: docs/benchmarks.md, "Vertex colours" and "Gathering again near by").
@@ -39,10 +41,11 @@ NEAR_ELEMENTS = 2.0
 NEAR_SAMPLES_PER_EDGE = 1  # one ray per near hit: the least noise per second
 
 
-def mean_free_path_m(scene, caster: RayCaster, offset_m: float, seed: int) -> float:
-    """Mean distance from a surface point to the surface it sees along a cosine-weighted direction, over
-    FREE_PATH_RAYS points spread by area over the solved triangles (either side of each), counting the rays that
-    land. Inside a closed convex room it is the mean chord length 4 V / S (Cauchy's formula)."""
+def free_paths_m(scene, caster: RayCaster, offset_m: float, seed: int) -> np.ndarray:
+    """(k,) distances from surface points to the surface each sees along a cosine-weighted direction, for the k of
+    FREE_PATH_RAYS rays that land, from points spread by area over the solved triangles (either side of each).
+    Inside a closed convex room their mean is the mean chord length 4 V / S (Cauchy's formula); between two wide
+    parallel plates h apart their median is sqrt(2) h (cos^2 of a cosine-weighted direction is uniform)."""
     triangles = scene.triangles[~scene.casts_only]
     rng = np.random.default_rng(seed)
     area = triangle_areas(triangles)
@@ -56,17 +59,15 @@ def mean_free_path_m(scene, caster: RayCaster, offset_m: float, seed: int) -> fl
     directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals))[:, 0]
     hit, bary = caster.first_hit(points + offset_m * normals, directions)
     landed = hit >= 0
-    if not landed.any():
-        return float("inf")
     ends = np.einsum("mc,mck->mk", bary[landed], scene.triangles[hit[landed]])
-    return float(lengths(ends - points[landed]).mean())
+    return lengths(ends - points[landed])
 
 
 def gather_pays(solution) -> bool:
     """Whether a final gather resolves the indirect light better than interpolation between the solution's
-    elements: where the mean free path is under GATHER_BELOW_ELEMENTS elements."""
-    free_path = mean_free_path_m(solution.scene, solution.caster, solution.offset_m, 0)
-    return free_path < GATHER_BELOW_ELEMENTS * solution.element_size_m
+    elements: where the median free path is under GATHER_BELOW_ELEMENTS elements (none landing: no)."""
+    paths = free_paths_m(solution.scene, solution.caster, solution.offset_m, 0)
+    return len(paths) > 0 and float(np.median(paths)) < GATHER_BELOW_ELEMENTS * solution.element_size_m
 
 
 def final_gather(solution, caster: RayCaster, points: np.ndarray, normals: np.ndarray, samples_per_edge: int,
