@@ -7,9 +7,10 @@ with pieces of their own size (core.clusters).
 
 1. Cover passes, before the direct light is sampled, one per halving from the element size down to the minimum
    (2 at the presets): an element side some of whose samples lie under a surface nearer than COVER_NEAR_SHARE of
-   the element's extent while others see nothing nearer than the extent is made finer. Such a side receives its indirect light at one point (core.hierarchical.Receivers), so where the
-   point lies in the open (a roof slab's underside, half over a wall top 2 cm below and half overhanging the sunlit
-   ground) the whole side, its covered part too, reflects the open part's light onto the surface under it.
+   the element's extent while others see nothing nearer than the extent is made finer. Such a side receives its
+   indirect light at one point (core.hierarchical.Receivers), so where the point lies in the open (a roof slab's
+   underside, half over a wall top 2 cm below and half overhanging the sunlit ground) the whole side, its covered
+   part too, reflects the open part's light onto the surface under it.
 2. Adaptive passes, as many as asked, after it: the elements whose direct light varies across their samples (a
    shadow's edge or a lamp's falloff crosses them). Without them, an element the shadow of a sheet hung just in
    front of a sunlit wall crosses sends its mostly sunlit mean to the sheet's back, which reflects it into its
@@ -31,6 +32,7 @@ from .mesh import ElementMesh, node_reflectance
 from .progress import Progress, no_progress
 from .raycast import RayCaster
 from .scene import Scene
+from .surface_probes import distance_in_front
 
 ADAPTIVE_GROWTH = 2.0      # an adaptive pass at most doubles the elements
 COVER_GROWTH = 1.25        # the cover passes together add at most a quarter of the elements
@@ -126,7 +128,7 @@ def unevenly_covered(clusters: FaceClusters, receivers: Receivers, exposed_sampl
     exposed = exposed_samples[receivers.element, receivers.side] > 0
     extent = np.linalg.norm(clusters.high - clusters.low, axis=1)
     distance = np.full(exposed.shape, np.inf)
-    distance[exposed] = caster.hit_distance(points[exposed] + offset_m * normals[exposed], normals[exposed])
+    distance[exposed] = distance_in_front(caster, points[exposed], normals[exposed], offset_m)
     side_extent = extent[receivers.element][:, None]
     covered = (exposed & (distance < COVER_NEAR_SHARE * side_extent)).any(axis=1)
     open_ = (exposed & (distance > side_extent)).any(axis=1)

@@ -34,6 +34,7 @@ from .mesh import CHILDREN, ElementMesh
 from .ragged import row_groups
 from .raycast import RayCaster
 from .scene import Scene
+from .surface_probes import distance_in_front
 
 SAMPLES = 4                 # area-stratified sample points per element
 NORMAL_BINS_PER_AXIS = 2    # 6 cube faces x 2 x 2 normal-direction bins
@@ -114,7 +115,7 @@ def cluster_pieces(mesh: ElementMesh, scene: Scene, caster: RayCaster, element_s
     level = np.round(np.log2(size.max() / size)).astype(np.int64) if len(size) else np.zeros(0, np.int64)
     key = np.concatenate([cell, normal_bins(normal)[:, None], alone[:, None], level[:, None]], axis=1)
     element, _ = row_groups(key)
-    in_front = caster.hit_distance(centroid + offset_m * normal, normal)
+    in_front = distance_in_front(caster, centroid, normal, offset_m)
     lift = np.minimum(LIFT_FRACTION * size, LIFT_GAP_SHARE * in_front)
     for round_number in range(VISIBILITY_ROUNDS):
         blocked = _blocked_from_centre(caster, element, centroid, normal, area, lift, offset_m)

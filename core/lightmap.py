@@ -24,8 +24,8 @@ from .raycast import RayCaster
 from .geometry import inset, lengths, triangle_areas
 from .scene import PointLight, SpotLight, SunLight
 from .seams import seam_points, stitch_seams
-from .surface_probes import (buried_in_geometry, covered_within, inside_closed_geometry, other_face_test,
-                             push_out_of_geometry)
+from .surface_probes import (buried_in_geometry, covered_within, distance_in_front, inside_closed_geometry,
+                             other_face_test, push_out_of_geometry)
 from .texels import (footprint_barycentrics, footprint_inside, footprint_steps, footprint_unfolded, rasterize,
                      sample_points, subcell_order)
 
@@ -399,7 +399,7 @@ def _under_near_surface(solution, points: np.ndarray, normals: np.ndarray) -> np
     GATHER_UNDER_ELEMENTS element sizes along the normal: a wall behind a moulding 1 cm proud, a gap between
     cushions. The elements there are larger than the gap, so the irradiance interpolated between them is the open
     surface's beside it; interpolating lightmaps gather these texels instead."""
-    distance = solution.caster.hit_distance(points + solution.offset_m * normals, normals)
+    distance = distance_in_front(solution.caster, points, normals, solution.offset_m)
     return np.flatnonzero(distance < GATHER_UNDER_ELEMENTS * solution.element_size_m)
 
 

@@ -112,6 +112,12 @@ def enclosure(caster: RayCaster, scene_triangles_m: np.ndarray, points: np.ndarr
     return inside, candidates, distance, behind
 
 
+def distance_in_front(caster: RayCaster, points: np.ndarray, normals: np.ndarray, offset_m: float) -> np.ndarray:
+    """(m,) distance from surface points, ``offset_m`` above them along their unit normals, to the first surface
+    in front along the normal (inf where none)."""
+    return caster.hit_distance(points + offset_m * normals, normals)
+
+
 def covered_within(caster: RayCaster, points: np.ndarray, normals: np.ndarray, depth_m: float) -> np.ndarray:
     """(m,) True where another face lies over a surface point, less than ``depth_m`` above it along its unit
     normal (and more than COVER_ROUND_OFF of that above): the middle of a column's facet inside a copy of the
