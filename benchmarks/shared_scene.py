@@ -7,15 +7,17 @@ Each quality bakes a lightmap with the command line in a child process, at its d
 child's peak resident memory and the report's rays, links and stage times). Cycles' Diffuse pass (Direct +
 Indirect, no Color) is then baked on the baked file's Lightmap UV map at the same resolution, twice at
 ``--reference`` samples (seeds 1 and 2: their mean is the reference, and its noise variance, a quarter of their
-mean squared difference, is removed from every squared error; kept in ``--cache``). Compared are the texels whose centre lies inside a chart
-triangle (blender_setup.uv_coverage) of every object baked into the page, linked duplicates past the first left
-out (Cycles bakes a shared mesh's UV map once), and so are texels Cycles leaves unbaked (0 in both bakes: its
-rasteriser misses centres in facets far thinner than a texel) and objects Cycles bakes black (a mirror or glass
-has no diffuse lobe, where our lightmap holds the light that reaches it). Printed per quality:
+mean squared difference, is removed from every squared error; kept in ``--cache``). Compared are the texels whose
+centre lies inside a chart triangle (blender_setup.uv_coverage) of every object baked into the page, linked
+duplicates past the first left out (Cycles bakes a shared mesh's UV map once), and so are texels Cycles leaves
+unbaked (0 in both bakes: its rasteriser misses centres in facets far thinner than a texel) and objects Cycles bakes
+black (a mirror or glass has no diffuse lobe, where our lightmap holds the light that reaches it). Printed per quality:
 
 - relative RMSE over those texels, the share of texels over twice Cycles plus 10% of the mean level (the issue's
-  leak bound), and the worst texels' (ours, Cycles) values;
-- the objects carrying most of the squared error, with their own relative RMSE and bias;
+  leak bound), the samples and seconds Cycles needs for its noise to fall to our error, and the worst texels'
+  (ours, Cycles) values;
+- the objects carrying most of the squared error, with their own relative RMSE and bias (per texel, its own noise
+  removed: a quarter of the two bakes' squared difference there);
 - the seam gap: along every UV seam between two faces within 30 degrees of each other, the lightmap read
   bilinearly on both sides at the same surface points (a quarter, half and three quarters along the edge), the
   mean absolute difference over the page's mean level.
@@ -173,7 +175,15 @@ def compare_quality(quality: str, scene_file: Path, folder: Path, reference_samp
         print(f"  relative RMSE {error:.4f}, bias {light[mask].mean() / mean - 1:+.4f}, texels over 2 x Cycles + "
               f"{LEAK_SHARE_OF_MEAN:.0%} of the mean: {int(leak.sum())} ({leak.sum() / mask.sum():.2%}), "
               f"seam gap {gap:.4f} of the mean ({seam_count} seam points)")
-        squared = np.where(mask, ((light - reference) ** 2).mean(axis=-1) - variance, 0.0)
+        # One bake's noise is twice the variance of the two bakes' mean; it falls as samples^-1/2.
+        samples = reference_samples * 2 * variance / (error * mean) ** 2
+        seconds = cycles_seconds * samples / reference_samples
+        print(f"  Cycles reaches our error at about {samples:.0f} spp, {seconds:.0f} s on this page (its noise's "
+              f"samples^-1/2 law from the {reference_samples} spp bakes; ours {report['wall_seconds']:.0f} s)")
+        # Per texel, its own noise (a quarter of the two bakes' squared difference): a white sofa's texels are
+        # noisier than the page's mean, and the page's variance left their noise in their objects' error.
+        texel_variance = ((first - second) ** 2).mean(axis=-1) / 4.0
+        squared = np.where(mask, ((light - reference) ** 2).mean(axis=-1) - texel_variance, 0.0)
         worst = np.argsort(squared.ravel())[::-1][:WORST_TEXELS]
         print("  worst texels (x, y: ours / Cycles): " + ", ".join(
             f"({k % width}, {k // width}: {ours_grey.ravel()[k]:.3f} / {cycles_grey.ravel()[k]:.3f})"
@@ -183,7 +193,7 @@ def compare_quality(quality: str, scene_file: Path, folder: Path, reference_samp
             texels = own[obj.name] & mask
             if texels.any():
                 rows.append((squared[texels].sum() / squared.sum(), obj.name, int(texels.sum()),
-                             relative_rmse(light, reference, texels, variance),
+                             relative_rmse(light, reference, texels, float(texel_variance[texels].mean())),
                              light[texels].mean() / reference[texels].mean() - 1))
         print(f"  {'object':34s} {'share of squared error':>22s} {'texels':>7s} {'rel. RMSE':>10s} {'bias':>7s}")
         for share, name, texels, own_error, bias in sorted(rows, reverse=True)[:WORST_OBJECTS]:
