@@ -34,10 +34,14 @@ from .progress import Progress, Timer, never_cancelled, no_progress
 from .raycast import RayCaster, first_use_message
 from .scene import MAX_REFLECTANCE, Scene
 from .formfactor_rows import HemicubeRows, Patches, RayCastRows
+from .gather import gather_at_receivers, gather_pays
+from .parallel import steps_in_flight
 from .solution import FRONT, SolvedElements, Solution
 from .solver import FormFactorCache, RadiosityState, patch_mean, solve_direct, solve_progressive
 
 RAY_OFFSET_FRACTION = 2e-5
+RECEIVER_GATHER_SAMPLES_PER_EDGE = 12  # s, so s^2 rays per element side in gather_at_receivers
+RECEIVER_GATHER_STREAM = 1 << 32  # added to the seed: rays apart from the lightmap's, whose seeds count texels
 REFINEMENT_TOLERANCE = 0.03  # a link is refined where its error bound exceeds 3% of the receiver's irradiance
 ROUGH_RESIDUAL = 0.05  # the solve before link refinement stops here (or at the residual threshold if looser)
 SOLVERS = ("hierarchical", "progressive", "direct")
@@ -65,6 +69,9 @@ class BakeSettings:
         recomputed when needed (memory then stays O(n + P^2)).
     max_memory_gb: the bake is refused (core.memory.MemoryLimitError) before any large allocation when its
         estimate is over this; 0: core.memory.default_limit_gb(), a share of the machine's memory.
+    receiver_gather: after the hierarchical solve, where outputs gather their indirect light
+        (core.gather.gather_pays), the element sides' indirect light is solved again over rays traced from them
+        (core.gather.gather_at_receivers); False: the links' solve as it is.
     """
 
     patch_size_m: float = 0.5
@@ -84,6 +91,7 @@ class BakeSettings:
     seed: int = 0
     threads: int = 0
     max_memory_gb: float = 0.0
+    receiver_gather: bool = False
 
     def __post_init__(self):
         positive = ("patch_size_m", "element_size_m", "opening", "visibility_samples_per_edge",
@@ -140,8 +148,21 @@ def bake(scene: Scene, settings: BakeSettings = BakeSettings(), progress: Progre
     direct = DirectLighting(scene, caster, settings.patch_size_m, offset, settings.light_samples_per_edge,
                             settings.seed)
     counts["emitters"] = direct.emitter_count
-    return Solution(scene, mesh, elements, direct, caster, offset, ambient, state.history, timer.laps,
-                    caster.rays_cast, state, reflectance_warnings(scene), counts, settings.element_size_m)
+    solution = Solution(scene, mesh, elements, direct, caster, offset, ambient, state.history, timer.laps,
+                        caster.rays_cast, state, reflectance_warnings(scene), counts, settings.element_size_m)
+    if settings.solver == "hierarchical" and settings.receiver_gather and gather_pays(solution):
+        solution = _gathered_at_receivers([solution], settings, progress, cancelled)[0]
+        solution.counts["receiver_gather"] = True
+        timer.lap("gather at the elements")
+        solution.rays_cast = caster.rays_cast
+    return solution
+
+
+def _gathered_at_receivers(solutions: list[Solution], settings: BakeSettings, progress, cancelled) -> list:
+    """core.gather.gather_at_receivers, seeded alike for a scene and its light groups (so that the groups' light
+    sums to the scene's) and apart from the lightmap's gather rays."""
+    return gather_at_receivers(solutions, RECEIVER_GATHER_SAMPLES_PER_EDGE, settings.seed + RECEIVER_GATHER_STREAM,
+                               steps_in_flight(settings.threads or None), progress, cancelled)
 
 
 def reflectance_warnings(scene: Scene) -> list[str]:
@@ -231,6 +252,8 @@ def bake_light_groups(solution: Solution, settings: BakeSettings = BakeSettings(
             groups[group] = _relit(solution, scene, settings, progress, cancelled)
         else:
             groups[group] = bake(scene, settings, progress, cancelled)
+    if solution.counts.get("receiver_gather"):
+        groups = dict(zip(groups, _gathered_at_receivers(list(groups.values()), settings, progress, cancelled)))
     return groups
 
 

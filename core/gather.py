@@ -20,11 +20,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import BakeCancelled
 from .geometry import lengths, tangent_frames, triangle_areas, triangle_unit_normals
 from .parallel import ordered_map
+from .progress import Progress, never_cancelled, no_progress
 from .ragged import even_ranges
 from .raycast import RayCaster
 from .sampling import cosine_hemisphere, stratified_square
+from .scene import MAX_REFLECTANCE
 
 RAYS_PER_CHUNK = 1 << 20
 FREE_PATH_RAYS = 1 << 14
@@ -39,6 +42,9 @@ GATHER_BELOW_ELEMENTS = 2.0
 # of the spot the ray meets (measured: docs/benchmarks.md, "Vertex colours" and "Gathering again near by").
 NEAR_ELEMENTS = 2.0
 NEAR_SAMPLES_PER_EDGE = 1  # one ray per near hit: the least noise per second
+RECEIVER_ITERATIONS = 1000  # the most Jacobi iterations of gather_at_receivers' transport
+RECEIVER_RAYS_PER_CHUNK = 1 << 18  # its rays traced at once: their hits and shadow rays, some 70 MB, beside the links
+RECEIVER_TOLERANCE = 1e-4   # they stop when the receivers' indirect light changes by less than this share
 
 
 def free_paths_m(scene, caster: RayCaster, offset_m: float, seed: int) -> np.ndarray:
@@ -61,6 +67,75 @@ def free_paths_m(scene, caster: RayCaster, offset_m: float, seed: int) -> np.nda
     landed = hit >= 0
     ends = np.einsum("mc,mck->mk", bary[landed], scene.triangles[hit[landed]])
     return lengths(ends - points[landed])
+
+
+def gather_at_receivers(solutions: list, samples_per_edge: int, seed: int, workers: int = 1,
+                        progress: Progress = no_progress, cancelled=never_cancelled) -> list:
+    """The hierarchical ``solutions`` (a scene's, or its light groups' along the same rays) with each live
+    element side's indirect irradiance solved again over rays in place of the links: from each side's receiver
+    point s^2 cosine-weighted rays, seeded from ``seed``, land on element sides; H_i = (1 / N) sum over its rays
+    of rho (E + H_j) at the landing point, with E the direct irradiance there (one shadow ray, as
+    Solution.landing) and H_j the indirect irradiance of the side landed on (escaping rays bring nothing: the
+    sides' direct light has the world's). This transport, traced once, is iterated from the links' solution
+    until it settles (Jacobi, RECEIVER_TOLERANCE): the two-pass method of the radiosity paper, section 10, at
+    the elements, where the links are least exact (close by, a link to a cluster of a curved surface draws its
+    parts as flat squares; measured: docs/benchmarks.md, "Third-party scene")."""
+    def checked():
+        if cancelled():
+            raise BakeCancelled("Bake cancelled while gathering at the elements.")
+
+    first = solutions[0]
+    element, side = np.nonzero(first.elements.alive)
+    receiver = element * 2 + side
+    points, normals = first.elements.point[element, side], first.elements.normal[element, side]
+    chunks = even_ranges(len(points), max(1, RECEIVER_RAYS_PER_CHUNK // samples_per_edge ** 2))
+
+    def traced(chunk):
+        checked()
+        progress(chunk.start / max(len(points), 1), "Gathering at the elements")
+        return _receiver_transport(solutions, points[chunk], normals[chunk], samples_per_edge, seed + chunk.start)
+
+    parts = list(ordered_map(traced, chunks, workers))
+    rows = np.concatenate([part[0] + chunk.start for chunk, part in zip(chunks, parts)])
+    target = np.concatenate([part[1] for part in parts])
+    weight = np.concatenate([part[2] for part in parts])
+    gathered = []
+    for number, solution in enumerate(solutions):
+        constant = np.concatenate([part[3][number] for part in parts])
+        indirect = solution.side_indirect_irradiance().reshape(-1, 3).copy()
+        for _ in range(RECEIVER_ITERATIONS):
+            checked()
+            again = constant + _sum_by_row(rows, weight * indirect[target], len(points))
+            change = np.abs(again - indirect[receiver]).sum() / max(np.abs(again).sum(), 1e-300)
+            indirect[receiver] = again
+            if change < RECEIVER_TOLERANCE:
+                break
+        gathered.append(solution.with_indirect(indirect.reshape(-1, 2, 3)))
+    return gathered
+
+
+def _receiver_transport(solutions, points, normals, samples_per_edge, seed):
+    """gather_at_receivers' rays from c receivers: per distinct (receiver, side landed on) pair, the (p,) receiver,
+    (p,) side landed on and (p, 3) sum of rho / N over its rays (rho capped at core.scene.MAX_REFLECTANCE, so
+    that light between white walls stays finite), and (G, c, 3) each lighting's (1 / N) sum of rho E."""
+    first = solutions[0]
+    rays = samples_per_edge ** 2
+    _, hit, bary, _, landed, side = _gather_rays(first.scene, first.caster, points[:, None, :], normals, normals,
+                                                 samples_per_edge, first.offset_m, seed)
+    landings = [solution.landing(hit[landed], bary[landed], side, seed) for solution in solutions]
+    lit, sides, reflectance, _ = landings[0]  # the same surfaces in each
+    row = landed[lit] // rays
+    constant = np.stack([_sum_by_row(row, reflectance * direct / rays, len(points)) for *_, direct in landings])
+    sides_count = 2 * first.elements.count
+    pairs, which = np.unique(row * sides_count + sides, return_inverse=True)
+    weight = _sum_by_row(which, np.minimum(reflectance, MAX_REFLECTANCE) / rays, len(pairs))
+    return ((pairs // sides_count).astype(np.int32), (pairs % sides_count).astype(np.int32),
+            weight.astype(np.float32), constant)
+
+
+def _sum_by_row(rows: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
+    """(count, 3) sums of the (k, 3) values by their (k,) rows."""
+    return np.stack([np.bincount(rows, weights=channel, minlength=count) for channel in values.T], axis=1)
 
 
 def gather_pays(solution) -> bool:
@@ -122,17 +197,10 @@ def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_
                   near_samples_per_edge, exact_lights, close_m, world):
     solution = solutions[0]  # the surfaces are the same in each
     count, rays = len(points), samples_per_edge ** 2
-    local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
-    directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals)).reshape(-1, 3)
-    which = np.arange(rays) % points.shape[1]
-    origins = (points[:, which, :] + offset_m * normals[:, None, :]).reshape(-1, 3)
-    hit, bary = caster.first_hit(origins, directions)
-    triangles = solution.scene.triangles
-    above = np.einsum("mrk,mk->mr", directions.reshape(count, rays, 3), face_normals).ravel() > 0
-    landed = np.flatnonzero((hit >= 0) & above)
-    side = (np.einsum("mk,mk->m", solution.scene.unit_normals[hit[landed]], directions[landed]) > 0)
-    side = side.astype(np.int64)
-    distance = lengths(np.einsum("mc,mck->mk", bary[landed], triangles[hit[landed]]) - origins[landed])
+    origins, hit, bary, above, landed, side = _gather_rays(solution.scene, caster, points, normals, face_normals,
+                                                           samples_per_edge, offset_m, seed)
+    distance = lengths(np.einsum("mc,mck->mk", bary[landed], solution.scene.triangles[hit[landed]]) -
+                       origins[landed])
     near = distance < near_m if near_samples_per_edge > 0 else np.zeros(len(landed), dtype=bool)
     close = np.zeros(len(hit), dtype=bool)
     close[landed] = distance < np.repeat(close_m, rays)[landed]
@@ -147,3 +215,21 @@ def _gather_chunk(solutions, caster, points, normals, face_normals, samples_per_
             part[(hit < 0) & above] = np.pi * np.asarray(lit.scene.world.radiance, dtype=np.float64)
     per_ray = radiosity.reshape(len(solutions), count, rays, 3) / np.pi
     return per_ray.mean(axis=2), per_ray.sum(axis=0).var(axis=1) / rays, close.reshape(count, rays).mean(axis=1)
+
+
+def _gather_rays(scene, caster: RayCaster, points: np.ndarray, normals: np.ndarray, face_normals: np.ndarray,
+                 samples_per_edge: int, offset_m: float, seed: int):
+    """The s^2 stratified cosine-weighted rays from each of m points (q points (m, q, 3) used in turn by a point's
+    rays) about its unit normal: (m s^2, 3) origins, their hits' (m s^2,) triangles and (m s^2, 3) barycentrics,
+    (m s^2,) whether each leaves above the face (``face_normals``), the (k,) rays that land above it, and (k,) the
+    side they land on (0 front, 1 back)."""
+    count, rays = len(points), samples_per_edge ** 2
+    local = cosine_hemisphere(stratified_square(count, samples_per_edge, seed))
+    directions = np.einsum("mrk,mkj->mrj", local, tangent_frames(normals)).reshape(-1, 3)
+    which = np.arange(rays) % points.shape[1]
+    origins = (points[:, which, :] + offset_m * normals[:, None, :]).reshape(-1, 3)
+    hit, bary = caster.first_hit(origins, directions)
+    above = np.einsum("mrk,mk->mr", directions.reshape(count, rays, 3), face_normals).ravel() > 0
+    landed = np.flatnonzero((hit >= 0) & above)
+    side = (np.einsum("mk,mk->m", scene.unit_normals[hit[landed]], directions[landed]) > 0).astype(np.int64)
+    return origins, hit, bary, above, landed, side

@@ -43,6 +43,9 @@ LINK_WORKSPACE = 256 * 2 ** 20  # candidate links weighed by one step (core.link
                                 # allocator's slack (fitted: docs/benchmarks.md, "Memory")
 CANDIDATES_PER_SIDE = 470       # Medium: about 235 links per side, twice while they are refined
 BYTES_PER_LINKED_SIDE = 30_000  # those links and their sparse transfer in the solve
+BYTES_PER_GATHERED_SIDE = 3_000 # core.gather.gather_at_receivers' transport, beside the links: at most 64 rays'
+                                # pairs a side of 20 bytes (int32 receiver and side, float32 RGB weight) and 24
+                                # of float64 light while it is iterated (measured: 0.13-0.16 GiB at 68,604 sides)
 BYTES_PER_TEXEL = 3_000         # a page's covered texels while lit: points, footprints, rays, interpolation
 BYTES_PER_PLANNED_TEXEL = 2_000 # every page's texels planned alongside the solve: the plan kept until the page
                                 # is lit (core.lightmap.TexelPlan, 9 footprint points a texel: 600 bytes) and the
@@ -178,7 +181,8 @@ def estimate_bake(triangles_m: np.ndarray, element_size_m: float, covered_texels
     persistent = (FIXED_BYTES + BYTES_PER_TRIANGLE * len(triangles_m) + BYTES_PER_PIECE * pieces +
                   BYTES_PER_SOLVED_SIDE * sides + BYTES_PER_IMAGE_TEXEL * image_texels +
                   BYTES_PER_PLANNED_TEXEL * planned_texels)
-    return MemoryEstimate({"solve": link_workspace_bytes(sides, threads) + BYTES_PER_LINKED_SIDE * sides,
+    linked = (BYTES_PER_LINKED_SIDE + BYTES_PER_GATHERED_SIDE) * sides
+    return MemoryEstimate({"solve": link_workspace_bytes(sides, threads) + linked,
                            "lightmap texels": BYTES_PER_TEXEL * covered_texels}, persistent)
 
 

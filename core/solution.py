@@ -8,9 +8,10 @@ traced there with shadow rays (core.direct_light), plus the indirect part interp
 """
 from __future__ import annotations
 
+import copy
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -101,6 +102,19 @@ class Solution:
         lit._field, lit._to_mesh, lit._overlap_test = self._receiver_field(), self._scene_to_mesh(), self._overlaps()
         return lit
 
+    def with_indirect(self, indirect_irradiance: np.ndarray) -> "Solution":
+        """The same hierarchical solution with each element side's indirect irradiance (n, 2, 3), W m^-2, the
+        light it gathers from reflected light, replaced by ``indirect_irradiance`` (its irradiance changed by as
+        much) and no ambient term: what a gather over the solution found there (core.gather.gather_at_receivers).
+        The tables of the geometry are shared."""
+        old = self.elements.indirect_irradiance
+        elements = replace(self.elements, indirect_irradiance=indirect_irradiance,
+                           irradiance=self.elements.irradiance + indirect_irradiance - old)
+        out = copy.copy(self)
+        out.elements, out.ambient_irradiance, out._indirect = elements, np.zeros(3), None
+        out.counts = dict(self.counts)
+        return out
+
     @property
     def element_count(self) -> int:
         return self.elements.count
@@ -113,6 +127,10 @@ class Solution:
     def element_light(self) -> np.ndarray:
         """(n, 3) irradiance / pi per element front (Cycles' Diffuse Direct + Indirect, no Color)."""
         return self.element_irradiance() / np.pi
+
+    def side_indirect_irradiance(self) -> np.ndarray:
+        """(n, 2, 3) indirect irradiance on each element side, W m^-2, ambient term included (0 on dead sides)."""
+        return np.pi * self._indirect_light()
 
     def element_radiosity(self) -> np.ndarray:
         """(n, 3) radiosity B = E + rho H per element front, W m^-2."""
@@ -218,29 +236,46 @@ class Solution:
         (core.gather.final_gather, the world by its escaping rays, one light chosen where each lands), instead of
         taken from the element. 0 on dead sides, unsolved triangles, and the fronts of faces where they lie on
         another face in their plane (``_overlaps``)."""
+        gathered = gather_samples_per_edge > 0
+        lit, sides, reflectance, direct = self.landing(scene_triangle, barycentric, side, seed_offset, not gathered,
+                                                       exact_lights)
+        if gathered:
+            on = np.asarray(scene_triangle, dtype=np.int64)[lit]
+            points = np.einsum("mc,mck->mk", np.asarray(barycentric, dtype=np.float64)[lit],
+                               self.scene.triangles[on])
+            normals = self.scene.unit_normals[on] * np.where(sides % 2 == FRONT, 1.0, -1.0)[:, None]
+            indirect = np.pi * final_gather(self, self.caster, points[:, None, :], normals, gather_samples_per_edge,
+                                            self.offset_m, seed_offset)[0]
+        else:
+            indirect = np.pi * self._indirect_light().reshape(-1, 3)[sides]
+        out = np.zeros((len(np.asarray(side)), 3))
+        out[lit] = reflectance * (direct + indirect)
+        return out
+
+    def landing(self, scene_triangle: np.ndarray, barycentric: np.ndarray, side: np.ndarray, seed_offset: int = 0,
+                world: bool = True, exact_lights: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Where rays land on the given sides (0 front, 1 back) of m surface points: (k,) the points on live
+        element sides, (k,) those sides (element x 2 + side), (k, 3) the reflectance there (texture included; 0
+        on the fronts of faces lying on another face in their plane, ``_overlaps``), and (k, 3) the direct
+        irradiance there, W m^-2, by one shadow ray to one light chosen by importance after one to each of the
+        ``exact_lights`` brightest (``seed_offset`` shifting their seed; ``world`` False leaves the world out)."""
         scene_triangle = np.asarray(scene_triangle, dtype=np.int64)
         barycentric = np.asarray(barycentric, dtype=np.float64)
         solved, node = self.pieces(scene_triangle, barycentric)
-        out = np.zeros((len(solved), 3))
         element = self.elements.node_element[node]
         face = np.asarray(side, dtype=np.int64)[solved]
         alive = self.elements.alive[element, face]
         lit = np.flatnonzero(solved)[alive]
         triangles = self.scene.triangles[scene_triangle[lit]]
         points = np.einsum("mc,mck->mk", barycentric[lit], triangles)
-        normals = self.scene.unit_normals[scene_triangle[lit]] * np.where(face[alive] == FRONT, 1.0, -1.0)[:, None]
-        gathered = gather_samples_per_edge > 0
-        if gathered:
-            indirect = np.pi * final_gather(self, self.caster, points[:, None, :], normals, gather_samples_per_edge,
-                                            self.offset_m, seed_offset)[0]
-        else:
-            indirect = np.pi * self._indirect_light()[element[alive], face[alive]]
-        irradiance = self.direct.irradiance(points, normals, 1, seed_offset, world=not gathered, sampled=True,
-                                            exact_lights=exact_lights)
-        out[lit] = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit]) * (irradiance + indirect)
         front = face[alive] == FRONT
-        out[lit[front][self._overlaps()(scene_triangle[lit[front]], barycentric[lit[front]])]] = 0.0
-        return out
+        normals = self.scene.unit_normals[scene_triangle[lit]] * np.where(front, 1.0, -1.0)[:, None]
+        direct = self.direct.irradiance(points, normals, 1, seed_offset, world=world, sampled=True,
+                                        exact_lights=exact_lights)
+        reflectance = self.scene.reflectance_at(scene_triangle[lit], barycentric[lit])
+        overlapping = self._overlaps()(scene_triangle[lit[front]], barycentric[lit[front]])
+        reflectance[np.flatnonzero(front)[overlapping]] = 0.0
+        return lit, element[alive] * 2 + face[alive], reflectance, direct
 
     def _overlaps(self):
         """``on_another_face(scene_triangle, barycentric)``: (m,) surface points that lie on another face in their

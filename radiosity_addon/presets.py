@@ -46,7 +46,8 @@ PRESETS = {
 
 def bake_settings(user, scene_size_m: float) -> BakeSettings:
     """core.BakeSettings for ``user`` (settings.UserSettings): a preset scaled to the scene's diagonal, or the
-    Custom values."""
+    Custom values; the elements' indirect light solved again by rays where outputs gather (core.gather
+    .gather_at_receivers)."""
     preset = PRESETS.get(user.quality)
     if preset is not None:
         element, patch = scene_size_m / preset.elements_across, scene_size_m / preset.patches_across
@@ -57,7 +58,7 @@ def bake_settings(user, scene_size_m: float) -> BakeSettings:
     return BakeSettings(element_size_m=element, patch_size_m=max(patch, element), adaptive_passes=passes,
                         residual_threshold=residual, light_samples_per_edge=samples,
                         adaptive_threshold=ADAPTIVE_THRESHOLD, min_element_size_m=element * MIN_ELEMENT_SHARE,
-                        seed=user.seed, max_memory_gb=user.max_memory_gb)
+                        seed=user.seed, max_memory_gb=user.max_memory_gb, receiver_gather=True)
 
 
 def lightmap_settings(user, scene_size_m: float) -> tuple[LightmapSettings, AtlasSize]:
