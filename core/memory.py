@@ -43,9 +43,10 @@ LINK_WORKSPACE = 256 * 2 ** 20  # candidate links weighed by one step (core.link
                                 # allocator's slack (fitted: docs/benchmarks.md, "Memory")
 CANDIDATES_PER_SIDE = 470       # Medium: about 235 links per side, twice while they are refined
 BYTES_PER_LINKED_SIDE = 30_000  # those links and their sparse transfer in the solve
-BYTES_PER_GATHERED_SIDE = 3_000 # core.gather.gather_at_receivers' transport, beside the links: at most 64 rays'
-                                # pairs a side of 20 bytes (int32 receiver and side, float32 RGB weight) and 24
-                                # of float64 light while it is iterated (measured: 0.13-0.16 GiB at 68,604 sides)
+BYTES_PER_GATHERED_SIDE = 3_000 # core.gather.gather_at_receivers' transport, beside the links: a pair per side
+                                # its 144 rays land on (20 bytes: int32 receiver and side, float32 RGB weight; 24
+                                # more of float64 light while it is iterated); measured: the courtyard's 250k
+                                # Medium peak rose 0.12-0.15 GiB at 68,604 sides, about 2 kB a side
 BYTES_PER_TEXEL = 3_000         # a page's covered texels while lit: points, footprints, rays, interpolation
 BYTES_PER_PLANNED_TEXEL = 2_000 # every page's texels planned alongside the solve: the plan kept until the page
                                 # is lit (core.lightmap.TexelPlan, 9 footprint points a texel: 600 bytes) and the
